@@ -1,0 +1,44 @@
+"""BubbleRob in MuJoCo as a Gymnasium environment: ``gym.make("BubbleRob-v0")``.
+
+Importing this package registers ``BubbleRob-v0``. Without a display, and unless ``MUJOCO_GL`` is
+already set, it selects MuJoCo's headless EGL backend before MuJoCo is imported, so that the camera
+and ``render_mode="rgb_array"`` work on servers.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+if sys.platform.startswith("linux") and not (
+    os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
+):
+    os.environ.setdefault("MUJOCO_GL", "egl")
+
+from gymnasium.envs.registration import register  # noqa: E402
+
+from bubblerob_env.env import ACTION_TYPES, BubbleRobEnv  # noqa: E402
+from bubblerob_env.kinematics import DiffDrive  # noqa: E402
+from bubblerob_env.sensors import (  # noqa: E402
+    CameraSpec,
+    LaserSpec,
+    ProximitySpec,
+    StaticTransform,
+)
+
+__all__ = [
+    "ACTION_TYPES",
+    "BubbleRobEnv",
+    "CameraSpec",
+    "DiffDrive",
+    "LaserSpec",
+    "ProximitySpec",
+    "StaticTransform",
+]
+__version__ = "0.1.0"
+
+register(
+    id="BubbleRob-v0",
+    entry_point="bubblerob_env.env:BubbleRobEnv",
+    max_episode_steps=1000,
+)

@@ -1,0 +1,212 @@
+"""Scene building and the seeded arena layout: obstacle slots, random obstacles, a free start pose.
+
+The model is compiled once per env. Every reset draws a new layout and writes it into the model's
+geom arrays (position, size, orientation, bounding volumes) of pre-allocated obstacle slots, so a
+reset never recompiles and renderers keep working on the same model.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from bubblerob_env import names
+
+__all__ = [
+    "ASSETS_DIR",
+    "DEFAULT_SCENE",
+    "ROBOT_RADIUS",
+    "ArenaLayout",
+    "Obstacle",
+    "ObstacleSlots",
+    "build_model",
+    "sample_layout",
+]
+
+ASSETS_DIR = Path(__file__).resolve().parent / "assets"
+DEFAULT_SCENE = ASSETS_DIR / "arena.xml"
+
+ROBOT_RADIUS = 0.11
+"""Radius of a circle around base_link that holds the whole robot (wheels' outer rims), metres."""
+OBSTACLE_HEIGHT = 0.3
+_WALL_THICKNESS = 0.05  # half-thickness of the arena walls, as in arena.xml
+_PARKED_Z = -10.0  # unused obstacle slots wait below the floor, out of every ray's reach
+_MAX_TRIES = 200
+
+
+@dataclass(frozen=True)
+class Obstacle:
+    """One obstacle. ``size`` is (radius,) for a cylinder, (half x, half y) for a box."""
+
+    kind: str
+    x: float
+    y: float
+    yaw: float
+    size: tuple[float, ...]
+
+    @property
+    def bounding_radius(self) -> float:
+        """Radius of the smallest vertical cylinder around it."""
+        return self.size[0] if self.kind == "cylinder" else math.hypot(*self.size)
+
+
+@dataclass(frozen=True)
+class ArenaLayout:
+    """Obstacles and the robot's start pose ``(x, y, yaw)`` drawn for one episode."""
+
+    obstacles: tuple[Obstacle, ...]
+    start_pose: tuple[float, float, float]
+
+
+def build_model(
+    xml_file: str | Path, arena_size: float, max_obstacles: int
+) -> tuple[mujoco.MjModel, bool]:
+    """Compile a scene with ``max_obstacles`` cylinder and box slots added.
+
+    If the scene has the default arena's walls they are moved and resized to enclose a square of
+    side ``arena_size``, and the floor is resized to match.
+
+    Returns:
+        The compiled model and whether the scene has the resizable arena walls.
+    """
+    spec = mujoco.MjSpec.from_file(str(xml_file))
+    walls = [spec.geom(name) for name in names.ARENA_WALLS]
+    has_arena = all(wall is not None for wall in walls)
+    if has_arena:
+        half = arena_size / 2.0
+        outer = half + 2 * _WALL_THICKNESS
+        for wall, (x, y) in zip(walls, ((0, 1), (0, -1), (1, 0), (-1, 0)), strict=True):
+            wall.pos = [
+                x * (half + _WALL_THICKNESS),
+                y * (half + _WALL_THICKNESS),
+                OBSTACLE_HEIGHT / 2,
+            ]
+            wall.size = [
+                outer if x == 0 else _WALL_THICKNESS,
+                outer if y == 0 else _WALL_THICKNESS,
+                OBSTACLE_HEIGHT / 2,
+            ]
+        floor = spec.geom(names.FLOOR_GEOM)
+        floor.size = [outer + 0.5, outer + 0.5, floor.size[2]]
+    obstacle_class = spec.find_default(names.OBSTACLE_CLASS)
+    for i in range(max_obstacles):
+        for prefix, geom_type in (
+            (names.CYLINDER_SLOT_PREFIX, mujoco.mjtGeom.mjGEOM_CYLINDER),
+            (names.BOX_SLOT_PREFIX, mujoco.mjtGeom.mjGEOM_BOX),
+        ):
+            spec.worldbody.add_geom(
+                default=obstacle_class,
+                name=f"{prefix}{i}",
+                type=geom_type,
+                size=[0.1, 0.1, OBSTACLE_HEIGHT / 2],
+                pos=[0.0, 0.0, _PARKED_Z],
+            )
+    return spec.compile(), has_arena
+
+
+class ObstacleSlots:
+    """Writes layouts into the obstacle slots of a model built by :func:`build_model`."""
+
+    def __init__(self, model: mujoco.MjModel, max_obstacles: int) -> None:
+        self._cylinders = [
+            model.geom(f"{names.CYLINDER_SLOT_PREFIX}{i}").id for i in range(max_obstacles)
+        ]
+        self._boxes = [model.geom(f"{names.BOX_SLOT_PREFIX}{i}").id for i in range(max_obstacles)]
+        # A moved geom must not take the "same frame as its body" shortcut.
+        model.geom_sameframe[self._cylinders + self._boxes] = 0
+
+    @property
+    def geom_ids(self) -> list[int]:
+        """Every slot's geom id."""
+        return self._cylinders + self._boxes
+
+    def apply(self, model: mujoco.MjModel, obstacles: tuple[Obstacle, ...]) -> None:
+        """Place ``obstacles`` in the slots and park the unused slots below the floor."""
+        half_height = OBSTACLE_HEIGHT / 2
+        free = {"cylinder": iter(self._cylinders), "box": iter(self._boxes)}
+        used = []
+        for obstacle in obstacles:
+            gid = next(free[obstacle.kind])
+            used.append(gid)
+            model.geom_pos[gid] = (obstacle.x, obstacle.y, half_height)
+            quat = np.empty(4)
+            mujoco.mju_axisAngle2Quat(quat, np.array([0.0, 0.0, 1.0]), obstacle.yaw)
+            model.geom_quat[gid] = quat
+            if obstacle.kind == "cylinder":
+                half_extents = (obstacle.size[0], obstacle.size[0], half_height)
+                model.geom_size[gid] = (obstacle.size[0], half_height, 0.0)
+                model.geom_rbound[gid] = math.hypot(obstacle.size[0], half_height)
+            else:
+                half_extents = (obstacle.size[0], obstacle.size[1], half_height)
+                model.geom_size[gid] = half_extents
+                model.geom_rbound[gid] = math.sqrt(sum(h * h for h in half_extents))
+            model.geom_aabb[gid] = (0.0, 0.0, 0.0, *half_extents)
+        for gid in set(self.geom_ids) - set(used):
+            model.geom_pos[gid] = (0.0, 0.0, _PARKED_Z)
+
+
+def sample_layout(
+    rng: np.random.Generator,
+    arena_size: float,
+    num_obstacles: tuple[int, int],
+    obstacle_size: tuple[float, float],
+    start_clearance: float,
+    start_pose: tuple[float, float, float] | None = None,
+) -> ArenaLayout:
+    """Draw obstacles at free positions inside the arena and a collision-free start pose.
+
+    Obstacles keep a gap of at least one robot diameter from each other and from the walls, so every
+    obstacle can be driven around. The start pose keeps ``start_clearance`` metres between the
+    robot's bounding circle and everything else. Positions that stay blocked after a bounded number
+    of tries are dropped, so the result depends only on the generator's state. A given
+    ``start_pose`` is kept and obstacles keep the same clearance from it.
+    """
+    half = arena_size / 2.0
+    count = int(rng.integers(num_obstacles[0], num_obstacles[1] + 1))
+    gap = 2 * ROBOT_RADIUS
+    obstacles: list[Obstacle] = []
+    for _ in range(count):
+        kind = "cylinder" if rng.random() < 0.5 else "box"
+        if kind == "cylinder":
+            size: tuple[float, ...] = (float(rng.uniform(*obstacle_size)),)
+        else:
+            size = (float(rng.uniform(*obstacle_size)), float(rng.uniform(*obstacle_size)))
+        yaw = float(rng.uniform(-math.pi, math.pi)) if kind == "box" else 0.0
+        for _ in range(_MAX_TRIES):
+            candidate = Obstacle(kind, 0.0, 0.0, yaw, size)
+            limit = half - candidate.bounding_radius - gap
+            if limit <= 0:
+                break
+            x, y = (float(v) for v in rng.uniform(-limit, limit, size=2))
+            candidate = Obstacle(kind, x, y, yaw, size)
+            clear_of_start = start_pose is None or (
+                math.hypot(x - start_pose[0], y - start_pose[1]) - candidate.bounding_radius
+                >= ROBOT_RADIUS + start_clearance
+            )
+            if clear_of_start and all(_distance(candidate, other) >= gap for other in obstacles):
+                obstacles.append(candidate)
+                break
+    if start_pose is None:
+        start_pose = _sample_start(rng, half, obstacles, ROBOT_RADIUS + start_clearance)
+    return ArenaLayout(tuple(obstacles), start_pose)
+
+
+def _distance(a: Obstacle, b: Obstacle) -> float:
+    return math.hypot(a.x - b.x, a.y - b.y) - a.bounding_radius - b.bounding_radius
+
+
+def _sample_start(
+    rng: np.random.Generator, half: float, obstacles: list[Obstacle], keep_out: float
+) -> tuple[float, float, float]:
+    limit = half - keep_out
+    if limit <= 0:
+        raise ValueError(f"arena of side {2 * half} m is too small for the robot")
+    for _ in range(_MAX_TRIES * 5):
+        x, y = (float(v) for v in rng.uniform(-limit, limit, size=2))
+        if all(math.hypot(x - o.x, y - o.y) - o.bounding_radius >= keep_out for o in obstacles):
+            return (x, y, float(rng.uniform(-math.pi, math.pi)))
+    raise RuntimeError("no collision-free start pose found; use fewer or smaller obstacles")

@@ -1,0 +1,479 @@
+"""``BubbleRob-v0``: obstacle avoidance with a differential-drive robot in MuJoCo."""
+
+from __future__ import annotations
+
+import inspect
+import math
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+from gymnasium import spaces
+from numpy.typing import NDArray
+
+from bubblerob_env import names
+from bubblerob_env.arena import (
+    DEFAULT_SCENE,
+    ArenaLayout,
+    ObstacleSlots,
+    build_model,
+    sample_layout,
+)
+from bubblerob_env.kinematics import DiffDrive, yaw_from_quat
+from bubblerob_env.rendering import HumanViewer, OverheadRenderer
+from bubblerob_env.sensors import (
+    CameraSensor,
+    CameraSpec,
+    Laser,
+    LaserSpec,
+    ProximitySensor,
+    ProximitySpec,
+    StaticTransform,
+    static_transforms,
+)
+
+__all__ = ["ACTION_TYPES", "BubbleRobEnv"]
+
+ACTION_TYPES = ("wheels", "twist")
+_DEFAULT_CAMERA_SIZE = 64
+
+
+class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
+    """BubbleRob, the CoppeliaSim tutorial robot, avoiding obstacles in a walled arena.
+
+    ## Description
+    A ~20 cm differential-drive robot (two motorised wheels, a frictionless caster, a proximity
+    sensor on its nose, a 2D laser scanner on top and an optional forward RGB camera) drives in a
+    square arena with randomly placed cylinders and boxes. The task is to drive fast without
+    touching anything. Frames follow REP 103: +x forward, +y left, +z up, yaw counter-clockwise.
+
+    ## Action Space
+    ``Box(-1, 1, (2,), float32)``, scaled by the kwargs:
+
+    - ``action_type="wheels"``: ``[left, right]`` wheel speed targets as fractions of
+      ``max_wheel_speed`` (rad/s), like the seed's ``leftMotorSpeed`` / ``rightMotorSpeed``.
+    - ``action_type="twist"``: ``[linear x, angular z]`` as fractions of ``max_linear_speed``
+      (m/s) and ``max_angular_speed`` (rad/s), like the seed's ``cmd_vel``. Converted to wheel
+      speeds by differential-drive inverse kinematics with the model's wheel radius and separation;
+      when a wheel would exceed ``max_wheel_speed`` both are scaled down, keeping the curvature.
+      A positive angular command turns counter-clockwise.
+
+    Out-of-range actions are clipped to [-1, 1] and counted (``info["action_clipped"]``,
+    ``info["clipped_actions"]``); NaN or infinite actions raise ``ValueError``.
+
+    ## Observation Space
+    ``Dict`` of float32 arrays (and a uint8 image):
+
+    - ``laser`` ``(laser_num_rays,)``: ranges in metres, ray 0 at ``angle_min``, counter-clockwise
+      (see :class:`~bubblerob_env.sensors.LaserSpec`); no return reads ``laser_range_max``.
+    - ``proximity`` ``(1,)``: distance straight ahead of the nose, ``proximity_range_max`` if none.
+    - ``velocity`` ``(2,)``: measured forward speed (m/s) and yaw rate (rad/s) of ``base_link``,
+      clipped to twice the twist limits.
+    - ``camera`` ``(camera_height, camera_width, 3)`` uint8 RGB, only when the camera is enabled.
+
+    ## Rewards
+    ``reward = forward - spin - collision`` with, per step,
+    ``forward = forward_reward_weight * v / max_linear_speed`` (negative when reversing),
+    ``spin = spin_cost_weight * |yaw rate| / max_angular_speed`` and
+    ``collision = collision_penalty`` on the step the robot touches a wall or an obstacle.
+    The parts are in ``info`` as ``reward_forward``, ``reward_spin``, ``reward_collision``.
+
+    ## Starting State
+    Each ``reset(seed=...)`` draws ``num_obstacles`` cylinders and boxes (radius / half sides in
+    ``obstacle_size``) at free positions, and a start pose at least ``start_clearance`` metres from
+    everything, with a uniform random heading; or uses ``start_pose`` when given. The robot starts
+    at rest. A scene given by ``xml_file`` is used as is, plus the random obstacles.
+
+    ## Episode End
+    Terminates when the robot touches a wall or obstacle (if ``terminate_on_collision``).
+    Truncates at the time limit (``max_episode_steps=1000``, 50 s, set at registration).
+
+    ## Arguments
+    Every argument below is a keyword argument of ``gym.make("BubbleRob-v0", ...)``; unknown ones
+    raise ``TypeError`` listing the valid names. See ``__init__`` for each one's meaning.
+
+    ## Version History
+    - v0: initial version.
+    """
+
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 20}
+
+    def __init__(
+        self,
+        xml_file: str | Path | None = None,
+        action_type: str = "wheels",
+        control_timestep: float = 0.05,
+        physics_substeps: int = 4,
+        max_wheel_speed: float = 10.0,
+        max_linear_speed: float | None = None,
+        max_angular_speed: float | None = None,
+        laser_num_rays: int = 360,
+        laser_fov: float = 2.0 * math.pi,
+        laser_range_min: float = 0.05,
+        laser_range_max: float = 5.0,
+        laser_noise_std: float = 0.0,
+        proximity_range_max: float = 0.6,
+        proximity_trigger_distance: float = 0.3,
+        camera: bool = False,
+        camera_width: int | None = None,
+        camera_height: int | None = None,
+        camera_shadows: bool = False,
+        arena_size: float = 4.0,
+        num_obstacles: tuple[int, int] = (4, 10),
+        obstacle_size: tuple[float, float] = (0.08, 0.25),
+        start_clearance: float = 0.25,
+        start_pose: tuple[float, float, float] | None = None,
+        forward_reward_weight: float = 1.0,
+        spin_cost_weight: float = 0.2,
+        collision_penalty: float = 10.0,
+        terminate_on_collision: bool = True,
+        render_mode: str | None = None,
+        render_width: int = 480,
+        render_height: int = 480,
+        **unknown_kwargs: Any,
+    ) -> None:
+        """Build the env.
+
+        Args:
+            xml_file: Scene MJCF (must include the robot, see ``assets/``); default ``arena.xml``.
+            action_type: ``"wheels"`` or ``"twist"`` (see Action Space).
+            control_timestep: Seconds of simulated time per ``step`` (20 Hz by default).
+            physics_substeps: MuJoCo steps per control step; the physics timestep is their ratio.
+            max_wheel_speed: Wheel speed (rad/s) that an action of 1 means in wheels mode; also
+                the motors' limit in twist mode.
+            max_linear_speed: m/s meant by a linear action of 1; default: the wheels' limit.
+            max_angular_speed: rad/s meant by an angular action of 1; default: spinning in place
+                with both wheels at their limit.
+            laser_num_rays: Rays per scan; 0 removes the laser from the observation.
+            laser_fov: Field of view in radians: 2*pi (360 degrees) or less, centred on +x.
+            laser_range_min: Minimum valid range (m), reported to ROS.
+            laser_range_max: Maximum range (m); no return reads this value.
+            laser_noise_std: Standard deviation (m) of Gaussian noise on each hit.
+            proximity_range_max: Range of the nose sensor (m).
+            proximity_trigger_distance: Distance under which the nose sensor "triggers" (m).
+            camera: Add the forward camera to the observation (64x64 unless sized).
+            camera_width: Image width in pixels; giving a size enables the camera.
+            camera_height: Image height in pixels; giving a size enables the camera.
+            camera_shadows: Render shadows and reflections (about 15x slower on a CPU).
+            arena_size: Inside side length of the square arena (m).
+            num_obstacles: Inclusive range of the number of obstacles per episode.
+            obstacle_size: Range of obstacle radius / half side (m).
+            start_clearance: Minimum free space around the robot at the start (m).
+            start_pose: Fixed start ``(x, y, yaw)``; default: random each reset.
+            forward_reward_weight: Weight of the forward-speed reward.
+            spin_cost_weight: Weight of the yaw-rate cost.
+            collision_penalty: Cost of touching a wall or an obstacle.
+            terminate_on_collision: End the episode on collision.
+            render_mode: ``None``, ``"rgb_array"`` (overhead view with the laser drawn) or
+                ``"human"`` (a window; needs a display).
+            render_width: Width of ``rgb_array`` frames.
+            render_height: Height of ``rgb_array`` frames.
+            **unknown_kwargs: Rejected with a ``TypeError`` listing the valid names.
+        """
+        if unknown_kwargs:
+            valid = [
+                p
+                for p in inspect.signature(BubbleRobEnv.__init__).parameters
+                if p not in ("self", "unknown_kwargs")
+            ]
+            raise TypeError(
+                f"BubbleRobEnv got unknown keyword argument(s) {sorted(unknown_kwargs)}; "
+                f"valid ones are: {', '.join(valid)}"
+            )
+        _check_choice("action_type", action_type, ACTION_TYPES)
+        _check_choice("render_mode", render_mode, (None, *self.metadata["render_modes"]))
+        _check_positive("control_timestep", control_timestep)
+        if not isinstance(physics_substeps, int) or physics_substeps < 1:
+            raise ValueError(f"physics_substeps must be an int >= 1, got {physics_substeps!r}")
+        lo, hi = num_obstacles
+        if not 0 <= lo <= hi:
+            raise ValueError(
+                f"num_obstacles must be (min, max) with 0 <= min <= max, got {num_obstacles}"
+            )
+        if not 0 < obstacle_size[0] <= obstacle_size[1]:
+            raise ValueError(
+                f"obstacle_size must be (min, max) with 0 < min <= max, got {obstacle_size}"
+            )
+        if laser_num_rays < 0:
+            raise ValueError(
+                f"laser_num_rays must be >= 0 (0 disables the laser), got {laser_num_rays}"
+            )
+        for label, value in (("max_wheel_speed", max_wheel_speed), ("arena_size", arena_size)):
+            _check_positive(label, value)
+
+        self.action_type = action_type
+        self.render_mode = render_mode
+        self.physics_substeps = physics_substeps
+        self.arena_size = float(arena_size)
+        self.num_obstacles = (int(lo), int(hi))
+        self.obstacle_size = (float(obstacle_size[0]), float(obstacle_size[1]))
+        self.start_clearance = float(start_clearance)
+        self.start_pose: tuple[float, float, float] | None = None
+        if start_pose is not None:
+            x, y, yaw = (float(v) for v in start_pose)
+            self.start_pose = (x, y, yaw)
+        self.forward_reward_weight = forward_reward_weight
+        self.spin_cost_weight = spin_cost_weight
+        self.collision_penalty = collision_penalty
+        self.terminate_on_collision = terminate_on_collision
+
+        self.xml_file = Path(xml_file) if xml_file is not None else DEFAULT_SCENE
+        self.model, _ = build_model(self.xml_file, self.arena_size, self.num_obstacles[1])
+        self.model.opt.timestep = control_timestep / physics_substeps
+        self.model.actuator_ctrlrange[:] = (-max_wheel_speed, max_wheel_speed)
+        self.data = mujoco.MjData(self.model)
+        self._slots = ObstacleSlots(self.model, self.num_obstacles[1])
+        self.layout: ArenaLayout | None = None
+
+        self.drive = DiffDrive.from_model(self.model, max_wheel_speed)
+        self.max_linear_speed = float(max_linear_speed or self.drive.max_linear_speed)
+        self.max_angular_speed = float(max_angular_speed or self.drive.max_angular_speed)
+        _check_positive("max_linear_speed", self.max_linear_speed)
+        _check_positive("max_angular_speed", self.max_angular_speed)
+
+        self.laser_spec = None
+        self._laser = None
+        if laser_num_rays > 0:
+            self.laser_spec = LaserSpec(
+                laser_num_rays,
+                laser_fov,
+                laser_range_min,
+                laser_range_max,
+                laser_noise_std,
+                scan_time=control_timestep,
+            )
+            self._laser = Laser(self.model, self.laser_spec)
+        self.proximity_spec = ProximitySpec(proximity_range_max, proximity_trigger_distance)
+        self._proximity = ProximitySensor(self.model, self.proximity_spec)
+        self.camera_spec = None
+        self._camera = None
+        if camera or camera_width is not None or camera_height is not None:
+            self.camera_spec = CameraSpec(
+                camera_width or _DEFAULT_CAMERA_SIZE,
+                camera_height or _DEFAULT_CAMERA_SIZE,
+                float(self.model.cam_fovy[self.model.camera(names.FRONT_CAMERA).id]),
+                shadows=camera_shadows,
+                reflections=camera_shadows,
+            )
+            self._camera = CameraSensor(self.model, self.camera_spec)
+        self.static_transforms: tuple[StaticTransform, ...] = static_transforms(self.model)
+
+        self._is_obstacle = self.model.geom_group == names.OBSTACLE_GROUP
+        self._base = self.model.body(names.BASE_BODY).id
+        self._root_qpos = int(self.model.joint(names.ROOT_JOINT).qposadr[0])
+        sensor_adr = {
+            n: int(self.model.sensor(n).adr[0])
+            for n in (
+                names.VELOCIMETER_SENSOR,
+                names.GYRO_SENSOR,
+                names.LEFT_WHEEL_SPEED_SENSOR,
+                names.RIGHT_WHEEL_SPEED_SENSOR,
+            )
+        }
+        self._velocity_adr = sensor_adr[names.VELOCIMETER_SENSOR]
+        self._gyro_adr = sensor_adr[names.GYRO_SENSOR]
+        self._wheel_adr = [
+            sensor_adr[names.LEFT_WHEEL_SPEED_SENSOR],
+            sensor_adr[names.RIGHT_WHEEL_SPEED_SENSOR],
+        ]
+
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+        self._velocity_limit = np.array([2 * self.max_linear_speed, 2 * self.max_angular_speed])
+        obs_spaces: dict[str, spaces.Space[Any]] = {}
+        if self.laser_spec is not None:
+            obs_spaces["laser"] = spaces.Box(0.0, laser_range_max, (laser_num_rays,), np.float32)
+        obs_spaces["proximity"] = spaces.Box(0.0, proximity_range_max, (1,), np.float32)
+        obs_spaces["velocity"] = spaces.Box(
+            -self._velocity_limit.astype(np.float32),
+            self._velocity_limit.astype(np.float32),
+            dtype=np.float32,
+        )
+        if self.camera_spec is not None:
+            shape = (self.camera_spec.height, self.camera_spec.width, 3)
+            obs_spaces["camera"] = spaces.Box(0, 255, shape, np.uint8)
+        self.observation_space = spaces.Dict(obs_spaces)  # type: ignore[assignment]
+
+        self._render_size = (render_width, render_height)
+        self._overhead: OverheadRenderer | None = None
+        self._viewer = HumanViewer(self.model, self.data) if render_mode == "human" else None
+        self._last_laser: NDArray[np.float32] | None = None
+        self._clipped_actions = 0
+
+    @property
+    def dt(self) -> float:
+        """Seconds of simulated time per ``step``."""
+        return self.model.opt.timestep * self.physics_substeps
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:
+        """Draw a new arena layout and start pose (see Starting State)."""
+        super().reset(seed=seed)
+        self.layout = sample_layout(
+            self.np_random,
+            self.arena_size,
+            self.num_obstacles,
+            self.obstacle_size,
+            self.start_clearance,
+            self.start_pose,
+        )
+        self._slots.apply(self.model, self.layout.obstacles)
+        mujoco.mj_resetData(self.model, self.data)
+        x, y, yaw = self.layout.start_pose
+        adr = self._root_qpos
+        self.data.qpos[adr : adr + 3] = (x, y, self.model.body_pos[self._base][2])
+        self.data.qpos[adr + 3 : adr + 7] = (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
+        mujoco.mj_forward(self.model, self.data)
+        self._clipped_actions = 0
+        obs = self._observe()
+        parts = {"reward_forward": 0.0, "reward_spin": 0.0, "reward_collision": 0.0}
+        info = self._info(obs, np.zeros(2), False, parts, False)
+        if self.render_mode == "human":
+            self.render()
+        return obs, info
+
+    def step(
+        self, action: NDArray[np.float32]
+    ) -> tuple[dict[str, NDArray[Any]], float, bool, bool, dict[str, Any]]:
+        """Apply ``action`` for one control step (see Action Space)."""
+        raw = np.asarray(action, dtype=np.float64)
+        if raw.shape != (2,):
+            raise ValueError(f"action must have shape (2,), got shape {raw.shape}: {raw!r}")
+        if not np.all(np.isfinite(raw)):
+            raise ValueError(
+                f"action {raw.tolist()} contains NaN or infinity; actions must be finite numbers, "
+                "and are clipped to [-1, 1]"
+            )
+        clipped = np.clip(raw, -1.0, 1.0)
+        was_clipped = bool(np.any(clipped != raw))
+        self._clipped_actions += was_clipped
+        if self.action_type == "wheels":
+            command = clipped * self.drive.max_wheel_speed
+        else:
+            command = self.drive.wheel_speeds(
+                clipped[0] * self.max_linear_speed, clipped[1] * self.max_angular_speed
+            )
+        self.data.ctrl[:] = command
+        # step2 then step1 leaves kinematics, contacts and sensors computed for the final state:
+        # the same work as mj_step, but the observation is not one substep stale.
+        for _ in range(self.physics_substeps):
+            mujoco.mj_step2(self.model, self.data)
+            mujoco.mj_step1(self.model, self.data)
+
+        obs = self._observe()
+        collision = self._in_collision()
+        forward_speed, yaw_rate = obs["velocity"]
+        parts = {
+            "reward_forward": self.forward_reward_weight
+            * float(forward_speed)
+            / self.max_linear_speed,
+            "reward_spin": -self.spin_cost_weight * abs(float(yaw_rate)) / self.max_angular_speed,
+            "reward_collision": -self.collision_penalty if collision else 0.0,
+        }
+        reward = sum(parts.values())
+        terminated = collision and self.terminate_on_collision
+        if self.render_mode == "human":
+            self.render()
+        return (
+            obs,
+            reward,
+            terminated,
+            False,
+            self._info(obs, command, collision, parts, was_clipped),
+        )
+
+    def _observe(self) -> dict[str, NDArray[Any]]:
+        sensordata = self.data.sensordata
+        velocity = np.array([sensordata[self._velocity_adr], sensordata[self._gyro_adr + 2]])
+        obs: dict[str, NDArray[Any]] = {}
+        if self._laser is not None:
+            self._last_laser = self._laser(self.model, self.data, self.np_random)
+            obs["laser"] = self._last_laser
+        obs["proximity"] = self._proximity(self.model, self.data)
+        obs["velocity"] = np.clip(velocity, -self._velocity_limit, self._velocity_limit).astype(
+            np.float32
+        )
+        if self._camera is not None:
+            obs["camera"] = self._camera(self.model, self.data)
+        return obs
+
+    def _in_collision(self) -> bool:
+        # Only robot geoms collide with walls and obstacles (contype/conaffinity in the MJCF).
+        pairs = self.data.contact.geom[: self.data.ncon]
+        return bool(self._is_obstacle[pairs].any())
+
+    def _info(
+        self,
+        obs: dict[str, NDArray[Any]],
+        command: NDArray[np.float64],
+        collision: bool,
+        parts: dict[str, float],
+        clipped: bool,
+    ) -> dict[str, Any]:
+        adr = self._root_qpos
+        position = self.data.qpos[adr : adr + 3].copy()
+        quat = self.data.qpos[adr + 3 : adr + 7].copy()
+        sensordata = self.data.sensordata
+        twist = np.concatenate(
+            [
+                sensordata[self._velocity_adr : self._velocity_adr + 3],
+                sensordata[self._gyro_adr : self._gyro_adr + 3],
+            ]
+        )
+        return {
+            "sim_time": float(self.data.time),
+            "x": float(position[0]),
+            "y": float(position[1]),
+            "yaw": yaw_from_quat(quat),
+            "position": position,
+            "quaternion_wxyz": quat,
+            "body_twist": twist,
+            "wheel_speeds": sensordata[self._wheel_adr].copy(),
+            "wheel_command": np.asarray(command, dtype=np.float64).copy(),
+            "collision": collision,
+            "proximity_triggered": self.proximity_spec.triggered(float(obs["proximity"][0])),
+            "action_clipped": clipped,
+            "clipped_actions": self._clipped_actions,
+            **parts,
+        }
+
+    def render(self) -> NDArray[np.uint8] | None:
+        """``rgb_array``: overhead frame with the laser drawn; ``human``: update the window."""
+        if self.render_mode == "human":
+            assert self._viewer is not None
+            self._viewer.render()
+            return None
+        if self.render_mode != "rgb_array":
+            return None
+        if self._overhead is None:
+            self._overhead = OverheadRenderer(self.model, *self._render_size, self.arena_size + 0.3)
+        if self._laser is None or self._last_laser is None or self.laser_spec is None:
+            return self._overhead.render(self.data)
+        site = self.model.site(names.LASER_SITE).id
+        origin = self.data.site_xpos[site].copy()
+        angles = self.laser_spec.angles()
+        local = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=1)
+        directions = local @ self.data.site_xmat[site].reshape(3, 3).T
+        points = origin + directions * self._last_laser[:, None].astype(np.float64)
+        return self._overhead.render(
+            self.data, origin, points, self._last_laser < self.laser_spec.range_max
+        )
+
+    def close(self) -> None:
+        """Free renderers and windows."""
+        for closable in (self._camera, self._overhead, self._viewer):
+            if closable is not None:
+                closable.close()
+        self._camera = self._overhead = self._viewer = None
+
+
+def _check_choice(label: str, value: object, allowed: tuple[object, ...]) -> None:
+    if value not in allowed:
+        raise ValueError(f"{label} must be one of {list(allowed)}, got {value!r}")
+
+
+def _check_positive(label: str, value: float) -> None:
+    if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+        raise ValueError(f"{label} must be a finite number > 0, got {value!r}")

@@ -1,0 +1,123 @@
+"""Views for ``render()``: an overhead camera with the laser drawn, and a window for humans."""
+
+from __future__ import annotations
+
+import os
+import sys
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["HumanViewer", "OverheadRenderer", "display_available", "scene_option"]
+
+_HIT_RGBA = np.array([1.0, 0.1, 0.1, 1.0], dtype=np.float32)
+_RAY_RGBA = np.array([1.0, 0.6, 0.1, 0.25], dtype=np.float32)
+_MAX_DRAWN_RAYS = 90  # more lines than this hide the robot under the fan
+_IDENTITY = np.eye(3).reshape(9)
+
+
+def display_available() -> bool:
+    """Whether a window can be opened (always assumed on macOS and Windows)."""
+    if not sys.platform.startswith("linux"):
+        return True
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+def scene_option() -> mujoco.MjvOption:
+    """Visual options for every view: MuJoCo's rangefinder ray drawing off (cameras saw it)."""
+    option = mujoco.MjvOption()
+    option.flags[mujoco.mjtVisFlag.mjVIS_RANGEFINDER] = False
+    return option
+
+
+class OverheadRenderer:
+    """Renders the arena from straight above (+x to the right, +y up) with laser rays and hits."""
+
+    def __init__(self, model: mujoco.MjModel, width: int, height: int, view_size: float) -> None:
+        max_geom = model.ngeom + 2 * 2048 + 100
+        self._renderer = mujoco.Renderer(model, height, width, max_geom=max_geom)
+        self._renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False
+        self._renderer.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = False
+        self._camera = mujoco.MjvCamera()
+        self._camera.type = mujoco.mjtCamera.mjCAMERA_FREE
+        self._camera.lookat[:] = (0.0, 0.0, 0.0)
+        self._camera.azimuth = 90.0
+        self._camera.elevation = -90.0
+        self._camera.distance = 5.0
+        # Orthographic: obstacles' tops do not lean away from the centre; the view's height in
+        # metres is model.vis.global_.fovy, so scale it to show the whole arena.
+        self._camera.orthographic = 1
+        self._ortho_extent = 1.05 * view_size
+        self._option = scene_option()
+
+    def _update_scene(self, data: mujoco.MjData) -> None:
+        saved = self._renderer.model.vis.global_.fovy
+        self._renderer.model.vis.global_.fovy = self._ortho_extent
+        try:
+            self._renderer.update_scene(data, camera=self._camera, scene_option=self._option)
+        finally:
+            self._renderer.model.vis.global_.fovy = saved
+
+    def render(
+        self,
+        data: mujoco.MjData,
+        laser_origin: NDArray[np.float64] | None = None,
+        laser_points: NDArray[np.float64] | None = None,
+        laser_hit: NDArray[np.bool_] | None = None,
+    ) -> NDArray[np.uint8]:
+        """One overhead frame; rays from ``laser_origin`` to ``laser_points``, hits as dots."""
+        self._update_scene(data)
+        if laser_origin is not None and laser_points is not None and laser_hit is not None:
+            scene = self._renderer.scene
+            ray_stride = max(1, -(-len(laser_points) // _MAX_DRAWN_RAYS))
+            for index, (point, hit) in enumerate(zip(laser_points, laser_hit, strict=True)):
+                if scene.ngeom + 2 > scene.maxgeom:
+                    break
+                if hit:
+                    dot = scene.geoms[scene.ngeom]
+                    mujoco.mjv_initGeom(
+                        dot,
+                        mujoco.mjtGeom.mjGEOM_SPHERE,
+                        np.full(3, 0.02),
+                        point,
+                        _IDENTITY,
+                        _HIT_RGBA,
+                    )
+                    scene.ngeom += 1
+                if index % ray_stride:
+                    continue
+                ray = scene.geoms[scene.ngeom]
+                mujoco.mjv_initGeom(
+                    ray, mujoco.mjtGeom.mjGEOM_LINE, np.zeros(3), np.zeros(3), _IDENTITY, _RAY_RGBA
+                )
+                mujoco.mjv_connector(ray, mujoco.mjtGeom.mjGEOM_LINE, 1.0, laser_origin, point)
+                scene.ngeom += 1
+        return self._renderer.render()
+
+    def close(self) -> None:
+        """Free the OpenGL context."""
+        self._renderer.close()
+
+
+class HumanViewer:
+    """MuJoCo's interactive viewer window, synced once per ``render()`` call."""
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        if not display_available():
+            raise RuntimeError(
+                "render_mode='human' opens a window, but no display was found (DISPLAY and "
+                "WAYLAND_DISPLAY are unset). Use render_mode='rgb_array' to get frames as arrays, "
+                "or run under a display (for example xvfb-run)."
+            )
+        import mujoco.viewer  # imported here: it loads GLFW, which needs a display
+
+        self._viewer = mujoco.viewer.launch_passive(model, data)
+
+    def render(self) -> None:
+        """Show the current state."""
+        self._viewer.sync()
+
+    def close(self) -> None:
+        """Close the window."""
+        self._viewer.close()
