@@ -1,0 +1,66 @@
+"""The MJCF assets compile, and every name the code uses exists in every scene."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from bubblerob_env import names
+from bubblerob_env.arena import ASSETS_DIR, build_model
+
+SCENES = sorted([ASSETS_DIR / "arena.xml", *(ASSETS_DIR / "scenes").glob("*.xml")])
+PIECES = ("common.xml", "robot.xml", "sensors.xml")
+
+
+@pytest.mark.parametrize("scene", SCENES, ids=lambda p: p.name)
+def test_scene_compiles_with_every_required_name(scene):
+    model = mujoco.MjModel.from_xml_path(str(scene))
+    for kind, required in names.REQUIRED_NAMES.items():
+        for name in required:
+            assert getattr(model, kind)(name).name == name
+
+
+@pytest.mark.parametrize("scene", SCENES, ids=lambda p: p.name)
+def test_scene_is_built_from_the_shared_pieces(scene):
+    text = scene.read_text()
+    for piece in PIECES:
+        assert piece in text, f"{scene.name} does not <include> {piece}"
+
+
+def test_every_asset_file_is_used_by_a_scene():
+    used = {piece for piece in PIECES} | {s.name for s in SCENES}
+    on_disk = {p.name for p in ASSETS_DIR.rglob("*.xml")}
+    assert on_disk == used
+
+
+def test_built_model_has_obstacle_slots_and_arena_walls():
+    model, has_arena = build_model(ASSETS_DIR / "arena.xml", arena_size=6.0, max_obstacles=3)
+    assert has_arena
+    for i in range(3):
+        model.geom(f"{names.CYLINDER_SLOT_PREFIX}{i}")
+        model.geom(f"{names.BOX_SLOT_PREFIX}{i}")
+    north = model.geom(names.ARENA_WALLS[0])
+    # The wall's inner face is at y = arena_size / 2.
+    assert north.pos[1] - north.size[1] == pytest.approx(3.0)
+
+
+def test_robot_geoms_are_hidden_from_the_laser_and_collide_with_obstacles():
+    model = mujoco.MjModel.from_xml_path(str(ASSETS_DIR / "arena.xml"))
+    base = model.body(names.BASE_BODY).id
+    robot = [g for g in range(model.ngeom) if model.body_rootid[model.geom_bodyid[g]] == base]
+    assert robot, "the robot has no geoms"
+    for g in robot:
+        assert model.geom_group[g] == names.ROBOT_GROUP
+        assert model.geom_conaffinity[g] & 2, f"geom {model.geom(g).name} cannot hit obstacles"
+    walls = [model.geom(n).id for n in names.ARENA_WALLS]
+    assert np.all(model.geom_group[walls] == names.OBSTACLE_GROUP)
+    assert model.geom(names.FLOOR_GEOM).group == names.FLOOR_GROUP
+
+
+def test_caster_is_frictionless_with_priority_over_the_floor():
+    model = mujoco.MjModel.from_xml_path(str(ASSETS_DIR / "arena.xml"))
+    caster = model.geom("caster")
+    assert caster.condim == 1
+    assert caster.priority > model.geom(names.FLOOR_GEOM).priority
+    assert caster.friction[0] == 0.0
