@@ -148,16 +148,18 @@ def test_spinning_in_place_is_penalised():
 def test_driving_into_a_wall_terminates_with_the_collision_penalty(wall_env_factory):
     env = wall_env_factory()
     env.reset(seed=0)
-    for step in range(200):
+    steps = 0
+    terminated = False
+    while not terminated and steps < 200:
         _, reward, terminated, truncated, info = env.step(np.array([1.0, 1.0], np.float32))
-        if terminated:
-            break
+        steps += 1
     assert terminated and not truncated
     assert info["collision"]
     assert info["reward_collision"] == -10.0
-    # The chassis front (x = 0.06 + radius margin) reached the wall face at x = 1.0.
-    assert 0.8 < info["x"] < 1.0
-    assert step > 10
+    assert reward < -9.0
+    # Wheels and chassis reach about 0.1 m ahead of base_link: it stopped at the wall (x = 1.0).
+    assert 0.85 < info["x"] < 0.95
+    assert steps > 10  # it drove there, it did not start in collision
 
 
 def test_collision_does_not_terminate_when_asked(wall_env_factory):
