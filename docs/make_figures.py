@@ -8,11 +8,12 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-import bubblerob_env  # noqa: F401  (registers the env, picks a headless GL backend)
 import gymnasium as gym
 import imageio.v3 as iio
 import mujoco
 import numpy as np
+
+import bubblerob_env  # noqa: F401  (registers the env, picks a headless GL backend)
 
 DEFAULT_OUT = Path(__file__).resolve().parent / "images" / "arena.png"
 

@@ -1,0 +1,71 @@
+"""``load_policy``: built-in controllers by name, trained SB3 models by path."""
+
+from __future__ import annotations
+
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+
+from bubblerob_env import BubbleRobEnv
+from policies.base import ActionMapper
+from policies.handwritten import LaserPolicy, RandomPolicy, ReactivePolicy
+
+__all__ = ["BUILTIN_POLICIES", "load_policy"]
+
+BUILTIN_POLICIES = ("reactive", "laser", "random")
+
+
+def _unwrap(env: gym.Env[Any, Any] | None) -> BubbleRobEnv:
+    if env is None:
+        return BubbleRobEnv()
+    base = env.unwrapped
+    if not isinstance(base, BubbleRobEnv):
+        raise TypeError(f"expected a BubbleRob env, got {type(base).__name__}")
+    return base
+
+
+def load_policy(name_or_path: str | Path, env: gym.Env[Any, Any] | None = None, seed: int = 0):
+    """A policy for ``env`` (default: ``BubbleRob-v0`` with default kwargs).
+
+    Args:
+        name_or_path: ``"reactive"``, ``"laser"``, ``"random"`` or a path to an SB3 ``.zip``
+            (PPO or SAC).
+        env: The env (or a wrapper of it) the policy will act in: its action type, speed limits
+            and laser geometry shape the built-in controllers' actions.
+        seed: Seed of the ``random`` policy.
+
+    Raises:
+        ValueError: For an unknown name or a file that is not an SB3 model.
+    """
+    name = str(name_or_path)
+    if name in BUILTIN_POLICIES:
+        base = _unwrap(env)
+        mapper = ActionMapper(
+            base.drive, base.action_type, base.max_linear_speed, base.max_angular_speed
+        )
+        if name == "reactive":
+            return ReactivePolicy(mapper, base.proximity_spec.trigger_distance, dt=base.dt)
+        if name == "laser":
+            if base.laser_spec is None:
+                raise ValueError("the laser policy needs an env with a laser (laser_num_rays > 0)")
+            return LaserPolicy(mapper, base.laser_spec)
+        return RandomPolicy(mapper, seed)
+    path = Path(name)
+    if path.suffix == ".zip" and path.is_file():
+        return _load_sb3(path)
+    raise ValueError(
+        f"unknown policy {name!r}: use one of {list(BUILTIN_POLICIES)} or a path to an SB3 .zip"
+    )
+
+
+def _load_sb3(path: Path):
+    from stable_baselines3 import PPO, SAC  # imported here: SB3 pulls in torch
+
+    with zipfile.ZipFile(path) as archive:
+        data = archive.read("data").decode() if "data" in archive.namelist() else ""
+    if not data:
+        raise ValueError(f"{path} is not a stable-baselines3 model (no 'data' entry)")
+    algo = SAC if '"log_ent_coef"' in data or "sac" in path.stem.lower() else PPO
+    return algo.load(path, device="cpu")
