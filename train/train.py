@@ -1,0 +1,186 @@
+"""Train an SB3 agent on a BubbleRob env with hyperparameters from ``train/hyperparams/*.yml``.
+
+A run writes into its output folder: ``config.yml`` (the hyperparameters used, after command-line
+overrides), ``command.txt`` (the command that reproduces it), ``versions.json`` (package
+versions), TensorBoard logs, checkpoints, ``evaluations.npz`` and ``best_model.zip`` from
+periodic evaluation on held-out seeds, and the final ``model.zip``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shlex
+import sys
+import time
+from collections.abc import Sequence
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import yaml
+
+import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
+
+__all__ = ["ALGOS", "SuccessInfo", "load_hyperparams", "main", "train"]
+
+ALGOS = ("ppo", "sac")
+HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
+EVAL_SEED_OFFSET = 1_000_000  # evaluation episodes use seeds training never sees
+_NOT_ALGO_KWARGS = ("n_timesteps", "n_envs", "env_kwargs", "policy")
+
+
+class SuccessInfo(gym.Wrapper):
+    """Sets SB3's ``info["is_success"]`` at episode end: time limit reached, no collision."""
+
+    def step(self, action):  # noqa: D102
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        if terminated or truncated:
+            info["is_success"] = bool(truncated and not terminated)
+        return obs, reward, terminated, truncated, info
+
+
+def load_hyperparams(algo: str, env_id: str) -> dict[str, Any]:
+    """The hyperparameters of ``algo`` for ``env_id`` from ``hyperparams/<algo>.yml``."""
+    if algo not in ALGOS:
+        raise ValueError(f"unknown algo {algo!r}; choose one of {list(ALGOS)}")
+    table = yaml.safe_load((HYPERPARAMS_DIR / f"{algo}.yml").read_text())
+    if env_id not in table:
+        raise ValueError(f"no {algo} hyperparameters for {env_id!r}; known: {sorted(table)}")
+    return dict(table[env_id])
+
+
+def _versions() -> dict[str, str]:
+    names = ("bubblerob", "mujoco", "gymnasium", "stable-baselines3", "torch", "numpy")
+    found = {}
+    for name in names:
+        try:
+            found[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            found[name] = "not installed"
+    found["python"] = sys.version.split()[0]
+    return found
+
+
+def train(
+    algo: str,
+    env_id: str,
+    out: Path,
+    timesteps: int | None = None,
+    n_envs: int | None = None,
+    seed: int = 0,
+    eval_freq: int = 20_000,
+    eval_episodes: int = 10,
+    progress_bar: bool = True,
+    command: str | None = None,
+) -> Path:
+    """Train and save; returns the path of the final model."""
+    from stable_baselines3 import PPO, SAC
+    from stable_baselines3.common.callbacks import CheckpointCallback, EvalCallback
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
+
+    config = load_hyperparams(algo, env_id)
+    if timesteps is not None:
+        config["n_timesteps"] = timesteps
+    if n_envs is not None:
+        config["n_envs"] = n_envs
+    config["seed"] = seed
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "config.yml").write_text(yaml.safe_dump({env_id: config}, sort_keys=False))
+    (out / "command.txt").write_text((command or _default_command(algo, env_id, out)) + "\n")
+    (out / "versions.json").write_text(json.dumps(_versions(), indent=2) + "\n")
+
+    env_kwargs = config.get("env_kwargs") or {}
+    count = int(config["n_envs"])
+    vec_cls = SubprocVecEnv if count > 1 else DummyVecEnv
+    envs = make_vec_env(
+        env_id,
+        n_envs=count,
+        seed=seed,
+        env_kwargs=env_kwargs,
+        wrapper_class=SuccessInfo,
+        vec_env_cls=vec_cls,
+    )
+    eval_env = make_vec_env(
+        env_id,
+        n_envs=1,
+        seed=seed + EVAL_SEED_OFFSET,
+        env_kwargs=env_kwargs,
+        wrapper_class=SuccessInfo,
+    )
+    algo_cls = {"ppo": PPO, "sac": SAC}[algo]
+    algo_kwargs = {k: v for k, v in config.items() if k not in (*_NOT_ALGO_KWARGS, "seed")}
+    model = algo_cls(
+        config["policy"],
+        envs,
+        seed=seed,
+        verbose=0,
+        tensorboard_log=str(out / "tb"),
+        device="cpu",
+        **algo_kwargs,
+    )
+    callbacks = [
+        EvalCallback(
+            eval_env,
+            n_eval_episodes=eval_episodes,
+            eval_freq=max(1, eval_freq // count),
+            best_model_save_path=str(out),
+            log_path=str(out),
+            deterministic=True,
+            verbose=0,
+        ),
+        CheckpointCallback(save_freq=max(1, 100_000 // count), save_path=str(out / "checkpoints")),
+    ]
+    start = time.perf_counter()
+    model.learn(int(config["n_timesteps"]), callback=callbacks, progress_bar=progress_bar)
+    final = out / "model.zip"
+    model.save(final)
+    (out / "train_time.json").write_text(
+        json.dumps({"wall_time_s": time.perf_counter() - start, "timesteps": model.num_timesteps})
+        + "\n"
+    )
+    envs.close()
+    eval_env.close()
+    return final
+
+
+def _default_command(algo: str, env_id: str, out: Path) -> str:
+    return shlex.join(["python", "-m", "train", "--algo", algo, "--env", env_id, "--out", str(out)])
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Command-line arguments of ``python -m train``."""
+    parser = argparse.ArgumentParser(prog="python -m train", description=__doc__.split("\n")[0])
+    parser.add_argument("--algo", choices=ALGOS, default="ppo")
+    parser.add_argument("--env", default="BubbleRob-v0", help="env id (default BubbleRob-v0)")
+    parser.add_argument("--timesteps", type=int, help="override n_timesteps from the YAML")
+    parser.add_argument("--n-envs", type=int, help="override n_envs (SubprocVecEnv when > 1)")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--eval-freq", type=int, default=20_000, help="env steps between evals")
+    parser.add_argument("--eval-episodes", type=int, default=10)
+    parser.add_argument("--out", type=Path, help="output folder (default runs/<algo>-<env>-<seed>)")
+    parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``python -m train``."""
+    args = build_parser().parse_args(argv)
+    out = args.out or Path("runs") / f"{args.algo}-{args.env}-{args.seed}"
+    command = shlex.join(["python", "-m", "train", *(sys.argv[1:] if argv is None else argv)])
+    final = train(
+        args.algo,
+        args.env,
+        out,
+        timesteps=args.timesteps,
+        n_envs=args.n_envs,
+        seed=args.seed,
+        eval_freq=args.eval_freq,
+        eval_episodes=args.eval_episodes,
+        progress_bar=not args.no_progress,
+        command=command,
+    )
+    print(f"saved {final} (best model: {out / 'best_model.zip'}, logs: {out / 'tb'})")
+    return 0
