@@ -74,14 +74,19 @@ def train(
     eval_episodes: int = 10,
     progress_bar: bool = True,
     command: str | None = None,
+    overrides: dict[str, Any] | None = None,
 ) -> Path:
-    """Train and save; returns the path of the final model."""
+    """Train and save; returns the path of the final model.
+
+    ``overrides`` replace hyperparameters from the YAML (``--set key=value`` on the command line).
+    """
     from stable_baselines3 import PPO, SAC
     from stable_baselines3.common.callbacks import CheckpointCallback, EvalCallback
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
     config = load_hyperparams(algo, env_id)
+    config.update(overrides or {})
     if timesteps is not None:
         config["n_timesteps"] = timesteps
     if n_envs is not None:
@@ -150,6 +155,13 @@ def _default_command(algo: str, env_id: str, out: Path) -> str:
     return shlex.join(["python", "-m", "train", "--algo", algo, "--env", env_id, "--out", str(out)])
 
 
+def _override(text: str) -> tuple[str, Any]:
+    key, sep, value = text.partition("=")
+    if not sep or not key:
+        raise argparse.ArgumentTypeError(f"--set needs KEY=VALUE, got {text!r}")
+    return key, yaml.safe_load(value)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Command-line arguments of ``python -m train``."""
     parser = argparse.ArgumentParser(prog="python -m train", description=__doc__.split("\n")[0])
@@ -161,6 +173,14 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--eval-freq", type=int, default=20_000, help="env steps between evals")
     parser.add_argument("--eval-episodes", type=int, default=10)
     parser.add_argument("--out", type=Path, help="output folder (default runs/<algo>-<env>-<seed>)")
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        type=_override,
+        help="override a hyperparameter (YAML value), e.g. --set n_steps=512",
+    )
     parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     return parser
 

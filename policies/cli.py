@@ -1,0 +1,56 @@
+"""``bubblerob evaluate``: compare policies on held-out seeds in one table, optionally a video."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from policies.evaluation import DEFAULT_EVAL_SEED, evaluate, format_table, record_video
+
+__all__ = ["add_subcommands"]
+
+
+def _env_kwargs(text: str) -> dict[str, Any]:
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as error:
+        raise argparse.ArgumentTypeError(f"--env-kwargs must be a JSON object: {error}") from error
+    if not isinstance(value, dict):
+        raise argparse.ArgumentTypeError(f"--env-kwargs must be a JSON object, got {text}")
+    return value
+
+
+def add_subcommands(subparsers: Any) -> None:
+    """Register ``evaluate``."""
+    parser = subparsers.add_parser(
+        "evaluate", help="evaluate policies on held-out seeds and print one table"
+    )
+    parser.add_argument(
+        "--policy",
+        action="append",
+        required=True,
+        help="reactive, laser, random or a path to an SB3 .zip; repeat to compare",
+    )
+    parser.add_argument("--episodes", type=int, default=100)
+    parser.add_argument("--seed", type=int, default=DEFAULT_EVAL_SEED, help="first episode seed")
+    parser.add_argument("--env", default="BubbleRob-v0", help="env id")
+    parser.add_argument("--env-kwargs", type=_env_kwargs, default={}, help="JSON object")
+    parser.add_argument("--markdown", action="store_true", help="print a Markdown table")
+    parser.add_argument("--video", type=Path, help="also write the first policy's first episode")
+    parser.set_defaults(handler=_run_evaluate)
+
+
+def _run_evaluate(args: argparse.Namespace) -> int:
+    if args.episodes < 1:
+        raise SystemExit(f"--episodes must be >= 1, got {args.episodes}")
+    results = [
+        evaluate(name, args.episodes, args.seed, args.env, args.env_kwargs, progress=True)
+        for name in args.policy
+    ]
+    print(format_table(results, markdown=args.markdown))
+    if args.video is not None:
+        frames = record_video(args.policy[0], args.video, args.seed, args.env, args.env_kwargs)
+        print(f"wrote {args.video} ({frames} frames)")
+    return 0

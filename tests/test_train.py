@@ -1,0 +1,88 @@
+"""The real training entry point, for a few hundred steps, and what a run leaves behind."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+from train import load_hyperparams
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.mark.parametrize("algo", ["ppo", "sac"])
+def test_training_script_runs_and_saves_a_reproducible_run(tmp_path, algo):
+    out = tmp_path / algo
+    command = [
+        sys.executable,
+        "-m",
+        "train",
+        "--algo",
+        algo,
+        "--env",
+        "BubbleRob-v0",
+        "--timesteps",
+        "256",
+        "--n-envs",
+        "2" if algo == "ppo" else "1",
+        "--seed",
+        "3",
+        "--eval-freq",
+        "128",
+        "--eval-episodes",
+        "1",
+        "--out",
+        str(out),
+    ]
+    if algo == "ppo":
+        command += ["--set", "n_steps=64", "--set", "batch_size=32"]
+    else:
+        command += ["--set", "learning_starts=64", "--set", "buffer_size=1000"]
+    command.append("--no-progress")
+    result = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stderr
+    for name in (
+        "model.zip",
+        "best_model.zip",
+        "config.yml",
+        "command.txt",
+        "versions.json",
+        "evaluations.npz",
+    ):
+        assert (out / name).is_file(), name
+    assert list((out / "tb").iterdir()), "no TensorBoard logs"
+    config = yaml.safe_load((out / "config.yml").read_text())["BubbleRob-v0"]
+    assert config["seed"] == 3
+    assert config["n_timesteps"] == 256
+    assert "--algo " + algo in (out / "command.txt").read_text()
+
+
+def test_trained_model_loads_as_a_policy(tmp_path):
+    import gymnasium as gym
+    from stable_baselines3 import PPO
+
+    from policies import load_policy
+
+    env = gym.make("BubbleRob-v0")
+    model = PPO("MultiInputPolicy", env, n_steps=32, batch_size=16, seed=0, device="cpu")
+    model.save(tmp_path / "tiny.zip")
+    policy = load_policy(tmp_path / "tiny.zip")
+    obs, _ = env.reset(seed=0)
+    action, _ = policy.predict(obs, deterministic=True)
+    assert env.action_space.contains(action.astype("float32"))
+
+
+def test_hyperparameters_are_plain_data_for_every_algo():
+    for algo in ("ppo", "sac"):
+        params = load_hyperparams(algo, "BubbleRob-v0")
+        assert params["policy"] == "MultiInputPolicy"
+        assert isinstance(params["n_timesteps"], int)
+
+
+def test_unknown_env_id_names_the_known_ones():
+    with pytest.raises(ValueError, match=r"no ppo hyperparameters for 'Nope-v0'.*BubbleRob-v0"):
+        load_hyperparams("ppo", "Nope-v0")
