@@ -1,19 +1,15 @@
 """BubbleRob in MuJoCo as a Gymnasium environment: ``gym.make("BubbleRob-v0")``.
 
 Importing this package registers ``BubbleRob-v0``. Without a display, and unless ``MUJOCO_GL`` is
-already set, it selects MuJoCo's headless EGL backend before MuJoCo is imported, so that the camera
-and ``render_mode="rgb_array"`` work on servers.
+already set, it selects MuJoCo's headless EGL backend, so that the camera and
+``render_mode="rgb_array"`` work on servers.
 """
 
 from __future__ import annotations
 
-import os
-import sys
+from bubblerob_env._headless import use_egl_without_display
 
-if sys.platform.startswith("linux") and not (
-    os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
-):
-    os.environ.setdefault("MUJOCO_GL", "egl")
+use_egl_without_display()
 
 from gymnasium.envs.registration import register  # noqa: E402
 

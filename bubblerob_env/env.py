@@ -451,15 +451,9 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
             self._overhead = OverheadRenderer(self.model, *self._render_size, self.arena_size + 0.3)
         if self._laser is None or self._last_laser is None or self.laser_spec is None:
             return self._overhead.render(self.data)
-        site = self.model.site(names.LASER_SITE).id
-        origin = self.data.site_xpos[site].copy()
-        angles = self.laser_spec.angles()
-        local = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=1)
-        directions = local @ self.data.site_xmat[site].reshape(3, 3).T
-        points = origin + directions * self._last_laser[:, None].astype(np.float64)
-        return self._overhead.render(
-            self.data, origin, points, self._last_laser < self.laser_spec.range_max
-        )
+        origin, points = self._laser.endpoints(self.data, self._last_laser)
+        hit = self._last_laser < self.laser_spec.range_max
+        return self._overhead.render(self.data, origin, points, hit)
 
     def close(self) -> None:
         """Free renderers and windows."""

@@ -275,6 +275,14 @@ class Laser:
         )
         return self.finish(self._dist, rng)
 
+    def endpoints(
+        self, data: mujoco.MjData, readings: NDArray[np.float32]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """World positions of the laser origin and of each ray's end at ``readings`` metres."""
+        origin = data.site_xpos[self._site].copy()
+        directions = self._local_dirs @ data.site_xmat[self._site].reshape(3, 3).T
+        return origin, origin + directions * readings[:, None].astype(np.float64)
+
     def finish(
         self, dist: NDArray[np.float64], rng: np.random.Generator | None = None
     ) -> NDArray[np.float32]:

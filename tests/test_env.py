@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 import shutil
 import subprocess
 import sys
@@ -293,3 +294,24 @@ def test_human_render_without_a_display_raises_clearly(monkeypatch):
 
 def test_package_exports():
     assert set(bubblerob_env.__all__) <= set(dir(bubblerob_env))
+
+
+def test_camera_works_headless_even_when_mujoco_is_imported_first():
+    script = (
+        "import mujoco, bubblerob_env, gymnasium as gym\n"
+        "env = gym.make('BubbleRob-v0', camera=True)\n"
+        "print(env.reset(seed=0)[0]['camera'].shape)\n"
+    )
+    env = {
+        k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY", "MUJOCO_GL")
+    }
+    result = subprocess.run(
+        [sys.executable, "-c", script],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+        check=False,
+    )
+    assert result.returncode == 0, result.stderr
+    assert "(64, 64, 3)" in result.stdout

@@ -28,7 +28,7 @@ __all__ = ["ALGOS", "SuccessInfo", "load_hyperparams", "main", "train"]
 ALGOS = ("ppo", "sac")
 HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
 EVAL_SEED_OFFSET = 1_000_000  # evaluation episodes use seeds training never sees
-_NOT_ALGO_KWARGS = ("n_timesteps", "n_envs", "env_kwargs", "policy")
+_NOT_ALGO_KWARGS = ("n_timesteps", "n_envs", "env_kwargs", "policy", "vec_env", "torch_threads")
 
 
 class SuccessInfo(gym.Wrapper):
@@ -80,6 +80,7 @@ def train(
 
     ``overrides`` replace hyperparameters from the YAML (``--set key=value`` on the command line).
     """
+    import torch
     from stable_baselines3 import PPO, SAC
     from stable_baselines3.common.callbacks import CheckpointCallback, EvalCallback
     from stable_baselines3.common.env_util import make_vec_env
@@ -99,7 +100,14 @@ def train(
 
     env_kwargs = config.get("env_kwargs") or {}
     count = int(config["n_envs"])
-    vec_cls = SubprocVecEnv if count > 1 else DummyVecEnv
+    # SubprocVecEnv when K > 1 unless the YAML says "vec_env: dummy": with small, fast envs on a
+    # 2-core machine the inter-process round trips cost more than stepping the envs in-process.
+    vec_cls = (
+        SubprocVecEnv
+        if count > 1 and config.get("vec_env", "subproc") == "subproc"
+        else DummyVecEnv
+    )
+    torch.set_num_threads(int(config.get("torch_threads", torch.get_num_threads())))
     envs = make_vec_env(
         env_id,
         n_envs=count,
