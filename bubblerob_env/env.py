@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 from bubblerob_env import names
 from bubblerob_env.arena import (
     DEFAULT_SCENE,
+    ROBOT_RADIUS,
     ArenaLayout,
     ObstacleSlots,
     build_model,
@@ -38,6 +39,7 @@ __all__ = ["ACTION_TYPES", "BubbleRobEnv"]
 
 ACTION_TYPES = ("wheels", "twist")
 _DEFAULT_CAMERA_SIZE = 64
+_REWARD_PARTS = ("reward_forward", "reward_spin", "reward_clearance", "reward_collision")
 
 
 class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
@@ -74,11 +76,15 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
     - ``camera`` ``(camera_height, camera_width, 3)`` uint8 RGB, only when the camera is enabled.
 
     ## Rewards
-    ``reward = forward - spin - collision`` with, per step,
+    ``reward = forward - spin - clearance - collision`` with, per step,
     ``forward = forward_reward_weight * v / max_linear_speed`` (negative when reversing),
-    ``spin = spin_cost_weight * |yaw rate| / max_angular_speed`` and
+    ``spin = spin_cost_weight * |yaw rate| / max_angular_speed``,
+    ``clearance = clearance_cost_weight * clip((clearance_distance - d) / (clearance_distance -
+    0.11), 0, 1)`` where ``d`` is the nearest laser (or, without a laser, proximity) reading, so
+    it grows from 0 at ``clearance_distance`` to the full weight at the robot's hull (0.11 m), and
     ``collision = collision_penalty`` on the step the robot touches a wall or an obstacle.
-    The parts are in ``info`` as ``reward_forward``, ``reward_spin``, ``reward_collision``.
+    The parts are in ``info`` as ``reward_forward``, ``reward_spin``, ``reward_clearance`` and
+    ``reward_collision`` (the costs as negative numbers).
 
     ## Starting State
     Each ``reset(seed=...)`` draws ``num_obstacles`` cylinders and boxes (radius / half sides in
@@ -127,6 +133,8 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
         start_pose: tuple[float, float, float] | None = None,
         forward_reward_weight: float = 1.0,
         spin_cost_weight: float = 0.2,
+        clearance_cost_weight: float = 0.5,
+        clearance_distance: float = 0.35,
         collision_penalty: float = 10.0,
         terminate_on_collision: bool = True,
         render_mode: str | None = None,
@@ -164,6 +172,8 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
             start_pose: Fixed start ``(x, y, yaw)``; default: random each reset.
             forward_reward_weight: Weight of the forward-speed reward.
             spin_cost_weight: Weight of the yaw-rate cost.
+            clearance_cost_weight: Weight of the cost of driving close to obstacles.
+            clearance_distance: Range (m) under which that cost starts.
             collision_penalty: Cost of touching a wall or an obstacle.
             terminate_on_collision: End the episode on collision.
             render_mode: ``None``, ``"rgb_array"`` (overhead view with the laser drawn) or
@@ -216,6 +226,13 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
             self.start_pose = (x, y, yaw)
         self.forward_reward_weight = forward_reward_weight
         self.spin_cost_weight = spin_cost_weight
+        self.clearance_cost_weight = clearance_cost_weight
+        if not clearance_distance > ROBOT_RADIUS:
+            raise ValueError(
+                f"clearance_distance must be > the robot radius {ROBOT_RADIUS} m, "
+                f"got {clearance_distance!r}"
+            )
+        self.clearance_distance = float(clearance_distance)
         self.collision_penalty = collision_penalty
         self.terminate_on_collision = terminate_on_collision
 
@@ -328,7 +345,7 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
         mujoco.mj_forward(self.model, self.data)
         self._clipped_actions = 0
         obs = self._observe()
-        parts = {"reward_forward": 0.0, "reward_spin": 0.0, "reward_collision": 0.0}
+        parts = dict.fromkeys(_REWARD_PARTS, 0.0)
         info = self._info(obs, np.zeros(2), False, parts, False)
         if self.render_mode == "human":
             self.render()
@@ -370,6 +387,7 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
             * float(forward_speed)
             / self.max_linear_speed,
             "reward_spin": -self.spin_cost_weight * abs(float(yaw_rate)) / self.max_angular_speed,
+            "reward_clearance": -self.clearance_cost_weight * self._closeness(obs),
             "reward_collision": -self.collision_penalty if collision else 0.0,
         }
         reward = sum(parts.values())
@@ -398,6 +416,11 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
         if self._camera is not None:
             obs["camera"] = self._camera(self.model, self.data)
         return obs
+
+    def _closeness(self, obs: dict[str, NDArray[Any]]) -> float:
+        nearest = float(obs["laser"].min()) if "laser" in obs else float(obs["proximity"][0])
+        span = self.clearance_distance - ROBOT_RADIUS
+        return min(1.0, max(0.0, (self.clearance_distance - nearest) / span))
 
     def _in_collision(self) -> bool:
         # Only robot geoms collide with walls and obstacles (contype/conaffinity in the MJCF).

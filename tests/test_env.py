@@ -131,10 +131,22 @@ def test_reward_is_the_sum_of_its_parts_and_rewards_driving_forward():
     env.reset(seed=0)
     for _ in range(15):
         _, reward, _, _, info = env.step(np.array([1.0, 1.0], np.float32))
-    parts = info["reward_forward"] + info["reward_spin"] + info["reward_collision"]
+    parts = sum(
+        info[k] for k in ("reward_forward", "reward_spin", "reward_clearance", "reward_collision")
+    )
     assert reward == pytest.approx(parts)
+    assert info["reward_clearance"] == 0.0  # nothing within 0.35 m
     assert info["reward_forward"] == pytest.approx(1.0, abs=0.02)  # at full speed
     assert info["reward_spin"] == pytest.approx(0.0, abs=0.01)
+
+
+@pytest.mark.parametrize(("x", "expected"), [(0.2, 0.0), (0.7, -0.5 * (0.35 - 0.315) / 0.24)])
+def test_driving_close_to_a_wall_costs_clearance(wall_env_factory, x, expected):
+    # The wall ahead is 1.0 - x - 0.015 (laser offset) from the laser; the left wall 0.7 m away.
+    env = wall_env_factory(start_pose=(x, -0.5, 0.0))
+    env.reset(seed=0)
+    info = env.step(np.zeros(2, np.float32))[4]
+    assert info["reward_clearance"] == pytest.approx(expected, abs=2e-3)
 
 
 def test_spinning_in_place_is_penalised():
