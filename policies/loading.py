@@ -60,12 +60,42 @@ def load_policy(name_or_path: str | Path, env: gym.Env[Any, Any] | None = None, 
     )
 
 
+NORMALIZATION_SUFFIX = "_vecnormalize.pkl"
+"""A model ``NAME.zip`` trained with ``normalize: true`` keeps its statistics in
+``NAME_vecnormalize.pkl`` beside it (written by ``python -m train``)."""
+
+
+class NormalizedPolicy:
+    """An SB3 model whose observations are normalised with its training statistics first."""
+
+    def __init__(self, model: Any, normalizer: Any) -> None:
+        self.model = model
+        self.normalizer = normalizer
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        """SB3's ``predict`` on the normalised observation."""
+        normalized = self.normalizer.normalize_obs(observation)
+        return self.model.predict(normalized, state, episode_start, deterministic)
+
+    def reset(self) -> None:
+        """Nothing to forget: the model is stateless."""
+
+
 def _load_sb3(path: Path):
+    import pickle
+
     from stable_baselines3 import PPO, SAC  # imported here: SB3 pulls in torch
 
     with zipfile.ZipFile(path) as archive:
         data = archive.read("data").decode() if "data" in archive.namelist() else ""
     if not data:
         raise ValueError(f"{path} is not a stable-baselines3 model (no 'data' entry)")
-    algo = SAC if '"log_ent_coef"' in data or "sac" in path.stem.lower() else PPO
-    return algo.load(path, device="cpu")
+    algo = SAC if '"log_ent_coef"' in data else PPO
+    model = algo.load(path, device="cpu")
+    stats = path.with_name(path.stem + NORMALIZATION_SUFFIX)
+    if not stats.is_file():
+        return model
+    with stats.open("rb") as handle:
+        normalizer = pickle.load(handle)  # noqa: S301 - our own training output
+    normalizer.training = False
+    return NormalizedPolicy(model, normalizer)

@@ -6,9 +6,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import gymnasium as gym
 import pytest
 import yaml
 
+from policies import load_policy
+from policies.loading import NormalizedPolicy
 from train import load_hyperparams
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -39,7 +42,7 @@ def test_training_script_runs_and_saves_a_reproducible_run(tmp_path, algo):
         str(out),
     ]
     if algo == "ppo":
-        command += ["--set", "n_steps=64", "--set", "batch_size=32"]
+        command += ["--set", "n_steps=64", "--set", "batch_size=32", "--set", "normalize=true"]
     else:
         command += ["--set", "learning_starts=64", "--set", "buffer_size=1000"]
     command.append("--no-progress")
@@ -58,7 +61,17 @@ def test_training_script_runs_and_saves_a_reproducible_run(tmp_path, algo):
     config = yaml.safe_load((out / "config.yml").read_text())["BubbleRob-v0"]
     assert config["seed"] == 3
     assert config["n_timesteps"] == 256
+    assert config["batch_size"] == 32 if algo == "ppo" else config["buffer_size"] == 1000
     assert "--algo " + algo in (out / "command.txt").read_text()
+    if algo == "ppo":  # trained with normalize: true, its statistics travel with the model
+        assert config["normalize"] is True
+        assert (out / "model_vecnormalize.pkl").is_file()
+        policy = load_policy(out / "model.zip")
+        assert isinstance(policy, NormalizedPolicy)
+        obs, _ = gym.make("BubbleRob-v0").reset(seed=0)
+        normalized = policy.normalizer.normalize_obs(obs)
+        assert abs(float(normalized["laser"].mean())) < abs(float(obs["laser"].mean()))
+        assert policy.predict(obs)[0].shape == (2,)
 
 
 def test_trained_model_loads_as_a_policy(tmp_path):

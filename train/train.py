@@ -27,8 +27,18 @@ __all__ = ["ALGOS", "SuccessInfo", "load_hyperparams", "main", "train"]
 
 ALGOS = ("ppo", "sac")
 HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
+NORMALIZATION_SUFFIX = "_vecnormalize.pkl"
+"""``<model stem><suffix>`` beside a model holds its VecNormalize statistics (``load_policy``)."""
 EVAL_SEED_OFFSET = 1_000_000  # evaluation episodes use seeds training never sees
-_NOT_ALGO_KWARGS = ("n_timesteps", "n_envs", "env_kwargs", "policy", "vec_env", "torch_threads")
+_NOT_ALGO_KWARGS = (
+    "normalize",
+    "n_timesteps",
+    "n_envs",
+    "env_kwargs",
+    "policy",
+    "vec_env",
+    "torch_threads",
+)
 
 
 class SuccessInfo(gym.Wrapper):
@@ -82,9 +92,18 @@ def train(
     """
     import torch
     from stable_baselines3 import PPO, SAC
-    from stable_baselines3.common.callbacks import CheckpointCallback, EvalCallback
+    from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback, EvalCallback
     from stable_baselines3.common.env_util import make_vec_env
-    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
+
+    class SaveNormalization(BaseCallback):
+        """Saves the observation normalisation beside the new best model."""
+
+        def _on_step(self) -> bool:
+            normalizer = self.model.get_vec_normalize_env()
+            if normalizer is not None:
+                normalizer.save(str(out / f"best_model{NORMALIZATION_SUFFIX}"))
+            return True
 
     config = load_hyperparams(algo, env_id)
     config.update(overrides or {})
@@ -123,6 +142,10 @@ def train(
         env_kwargs=env_kwargs,
         wrapper_class=SuccessInfo,
     )
+    if config.get("normalize", False):
+        # rl-zoo's "normalize: true": running mean/std of observations (and returns for training).
+        envs = VecNormalize(envs, gamma=float(config.get("gamma", 0.99)))
+        eval_env = VecNormalize(eval_env, training=False, norm_reward=False)
     algo_cls = {"ppo": PPO, "sac": SAC}[algo]
     algo_kwargs = {k: v for k, v in config.items() if k not in (*_NOT_ALGO_KWARGS, "seed")}
     model = algo_cls(
@@ -140,6 +163,7 @@ def train(
             n_eval_episodes=eval_episodes,
             eval_freq=max(1, eval_freq // count),
             best_model_save_path=str(out),
+            callback_on_new_best=SaveNormalization(),
             log_path=str(out),
             deterministic=True,
             verbose=0,
@@ -150,6 +174,8 @@ def train(
     model.learn(int(config["n_timesteps"]), callback=callbacks, progress_bar=progress_bar)
     final = out / "model.zip"
     model.save(final)
+    if isinstance(envs, VecNormalize):
+        envs.save(str(out / f"model{NORMALIZATION_SUFFIX}"))
     (out / "train_time.json").write_text(
         json.dumps({"wall_time_s": time.perf_counter() - start, "timesteps": model.num_timesteps})
         + "\n"
@@ -209,6 +235,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         eval_episodes=args.eval_episodes,
         progress_bar=not args.no_progress,
         command=command,
+        overrides=dict(args.set),
     )
     print(f"saved {final} (best model: {out / 'best_model.zip'}, logs: {out / 'tb'})")
     return 0
