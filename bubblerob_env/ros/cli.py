@@ -1,0 +1,173 @@
+"""``bubblerob record``, ``bubblerob info`` and ``bubblerob replay``."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shlex
+import sys
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
+from bubblerob_env.ros.bagread import read_summary
+from bubblerob_env.ros.recorder import RosBagRecorder
+from bubblerob_env.ros.replay import ReplayError, replay_bag
+from bubblerob_env.ros.sinks import COMPRESSIONS, FORMATS
+from bubblerob_env.ros.topics import PRESETS, topics_preset
+
+__all__ = ["add_subcommands"]
+
+
+def add_subcommands(subparsers: Any) -> None:
+    """Add ``record``, ``info`` and ``replay`` to the ``bubblerob`` command."""
+    record = subparsers.add_parser(
+        "record",
+        help="run a policy and record its episodes as a ROS bag",
+        description="Run a policy in BubbleRob-v0 and record every step as a ROS bag "
+        "(ROS 2 MCAP or sqlite3, or ROS 1 .bag). Episode k is reset with seed S+k.",
+    )
+    record.add_argument("--policy", required=True, help="reactive, laser, random or an SB3 .zip")
+    record.add_argument("--episodes", type=int, default=1, help="episodes to record (default 1)")
+    record.add_argument("--seed", type=int, default=0, help="seed of the first episode")
+    record.add_argument("--format", choices=FORMATS, default="mcap", help="bag format")
+    all_compressions = sorted({c for options in COMPRESSIONS.values() for c in options})
+    record.add_argument(
+        "--compression",
+        choices=all_compressions,
+        default=None,
+        help="mcap: zstd (default) or none; ros1: none (default), bz2 or lz4; sqlite3: none",
+    )
+    record.add_argument("--distro", default=None, help="jazzy (default) or humble; ros1: noetic")
+    record.add_argument("--camera", action="store_true", help="record the camera (64x64)")
+    record.add_argument("--max-steps", type=int, default=None, help="step limit per episode")
+    record.add_argument("--topics", choices=sorted(PRESETS), default="default", help="names")
+    record.add_argument("--namespace", default="", help="prefix for the robot's topics")
+    record.add_argument("--per-episode", action="store_true", help="one bag per episode")
+    record.add_argument("--overwrite", action="store_true", help="replace an existing bag")
+    record.add_argument("--no-progress", action="store_true", help="no progress bar")
+    record.add_argument("--out", type=Path, required=True, help="directory for the bag")
+    record.set_defaults(handler=_record)
+
+    info = subparsers.add_parser(
+        "info", help="show a bag's topics, counts, duration and episodes", description=None
+    )
+    info.add_argument("bag", type=Path, help="ROS 1 .bag file or ROS 2 bag directory")
+    info.add_argument("--json", action="store_true", help="print JSON instead of text")
+    info.set_defaults(handler=_info)
+
+    replay = subparsers.add_parser(
+        "replay",
+        help="re-simulate a recorded bag and check it matches",
+        description="Re-create the env of every episode from the bag's metadata, feed the "
+        "recorded actions and compare every message; report the first divergence.",
+    )
+    replay.add_argument("bag", type=Path, help="ROS 1 .bag file or ROS 2 bag directory")
+    replay.add_argument("--episodes", type=int, default=None, help="replay only the first N")
+    replay.set_defaults(handler=_replay)
+
+
+def _load_policy(name: str, env: gym.Env[Any, Any], seed: int) -> Any:
+    """The policy called ``name`` (from the ``policies`` package)."""
+    from policies import load_policy
+
+    return load_policy(name, env=env, seed=seed)
+
+
+def _record(args: argparse.Namespace) -> int:
+    if args.episodes < 1:
+        print("bubblerob record: --episodes must be at least 1", file=sys.stderr)
+        return 2
+    kwargs: dict[str, Any] = {"camera": True} if args.camera else {}
+    if args.max_steps is not None:
+        kwargs["max_episode_steps"] = args.max_steps
+    env = gym.make("BubbleRob-v0", **kwargs)
+    name = f"bubblerob_{Path(args.policy).stem}_seed{args.seed}"
+    try:
+        policy = _load_policy(args.policy, env, args.seed)
+    except (ValueError, TypeError) as error:
+        env.close()
+        print(f"bubblerob record: {error}", file=sys.stderr)
+        return 2
+    try:
+        recorder = RosBagRecorder(
+            env,
+            args.out / name,
+            format=args.format,
+            distro=args.distro,
+            compression=args.compression,
+            topics=topics_preset(args.topics, args.namespace),
+            overwrite=args.overwrite,
+            metadata={"policy": args.policy, "command": shlex.join(["bubblerob", *sys.argv[1:]])},
+            per_episode=args.per_episode,
+        )
+    except (OSError, ValueError) as error:
+        env.close()
+        print(f"bubblerob record: {error}", file=sys.stderr)
+        return 2
+    from tqdm import tqdm
+
+    progress = tqdm(total=args.episodes, unit="episode", disable=args.no_progress, file=sys.stderr)
+    total_steps = 0
+    with recorder, progress:
+        for episode in range(args.episodes):
+            obs, _ = recorder.reset(seed=args.seed + episode)
+            state, start, done, steps, ret = None, True, False, 0, 0.0
+            while not done:
+                action, state = policy.predict(
+                    obs, state=state, episode_start=np.array([start]), deterministic=True
+                )
+                obs, reward, terminated, truncated, _ = recorder.step(action)
+                start, done = False, terminated or truncated
+                steps += 1
+                ret += float(reward)
+            total_steps += steps
+            progress.set_postfix(steps=total_steps, last_return=f"{ret:.1f}")
+            progress.update()
+    paths = recorder.bag_paths
+    where = paths[0] if len(paths) == 1 else args.out / name
+    print(f"recorded {args.episodes} episode(s), {total_steps} steps to {where}")
+    return 0
+
+
+def _info(args: argparse.Namespace) -> int:
+    try:
+        summary = read_summary(args.bag)
+    except (FileNotFoundError, OSError) as error:
+        print(f"bubblerob info: {error}", file=sys.stderr)
+        return 2
+    if args.json:
+        print(json.dumps(summary.to_dict(), indent=2, sort_keys=True))
+        return 0
+    print(f"bag:       {summary.path}")
+    print(f"storage:   {summary.storage}")
+    print(f"duration:  {summary.duration_s:.3f} s (simulated)")
+    print(f"start/end: {summary.start_ns / 1e9:.3f} s / {summary.end_ns / 1e9:.3f} s")
+    print(f"messages:  {summary.message_count}")
+    width = max((len(t.name) for t in summary.topics), default=5)
+    print("topics:")
+    for topic in summary.topics:
+        print(f"  {topic.name:<{width}}  {topic.count:>7}  {topic.msgtype}")
+    where = f" (on {summary.episode_topic})" if summary.episodes else ""
+    print(f"episodes:  {len(summary.episodes)}{where}")
+    for meta in summary.episodes:
+        kwargs = json.dumps(meta.get("env_kwargs") or {}, sort_keys=True)
+        print(
+            f"  #{meta['episode']}: start {meta['start_time_ns'] / 1e9:.3f} s, "
+            f"seed {meta.get('seed')}, policy {meta.get('policy', '-')}, "
+            f"env {meta.get('env_id')} {kwargs}, distro {meta.get('distro')}"
+        )
+    return 0
+
+
+def _replay(args: argparse.Namespace) -> int:
+    try:
+        report = replay_bag(args.bag, max_episodes=args.episodes)
+    except (ReplayError, FileNotFoundError) as error:
+        print(f"bubblerob replay: {error}", file=sys.stderr)
+        return 2
+    print(report)
+    return 0 if report.ok else 1

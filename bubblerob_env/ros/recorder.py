@@ -1,0 +1,294 @@
+"""``RosBagRecorder``: a Gymnasium wrapper that records every step of every episode into a bag.
+
+Timestamps are simulated time: an episode's frames are stamped ``start + info["sim_time"]``, and
+each episode starts one control step after the previous one ended, so that time increases strictly
+across the episodes of a bag. With ``per_episode=True`` each episode gets its own bag instead.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from numpy.typing import NDArray
+
+from bubblerob_env.ros import safety
+from bubblerob_env.ros.convert import EnvSpecs
+from bubblerob_env.ros.serialize import MessageFanout
+from bubblerob_env.ros.sinks import DEFAULT_DISTRO, FORMATS, BagSink, bag_path, open_bag
+from bubblerob_env.ros.topics import Topics
+
+__all__ = [
+    "EPISODES_KEY",
+    "RECORDING_KEY",
+    "RosBagRecorder",
+    "env_metadata",
+    "recorded_env_fns",
+]
+
+EPISODES_KEY = "bubblerob.episodes"
+"""ROS 2 bags: ``custom_data`` key (metadata.yaml and the MCAP ``rosbag2`` metadata record) of a
+JSON list with each episode's number, seed and start time. The env id, kwargs, policy and the rest
+are under ``bubblerob.recording``; every episode's full metadata is on the episode topic."""
+RECORDING_KEY = "bubblerob.recording"
+_SUMMARY_KEYS = ("episode", "seed", "start_time_ns")
+_SHARED_KEYS = ("episode", "seed", "rng_state", "options", "start_time_ns", "first_seq")
+
+_RESERVED = {
+    "episode", "seed", "rng_state", "options", "env_id", "env_kwargs", "max_episode_steps",
+    "start_time_ns", "first_seq", "dt", "distro", "format", "topics", "bubblerob_version",
+}  # fmt: skip
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, Mapping):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return value
+    return str(value)  # paths and the like
+
+
+def env_metadata(env: gym.Env[Any, Any]) -> dict[str, Any]:
+    """How to re-create ``env``: its registered id, constructor kwargs and step limit."""
+    spec = env.spec
+    if spec is None:
+        return {"env_id": None, "env_kwargs": {}, "max_episode_steps": None}
+    return {
+        "env_id": spec.id,
+        "env_kwargs": _jsonable(spec.kwargs),
+        "max_episode_steps": spec.max_episode_steps,
+    }
+
+
+class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
+    """Record every ``reset`` and ``step`` of a BubbleRob env into a ROS bag.
+
+    The bag is created when the wrapper is (so a bad path fails before the first step) and
+    finished by :meth:`close`, or, if the program dies of an exception, Ctrl-C or SIGTERM first,
+    by :mod:`~bubblerob_env.ros.safety`; either way it holds every completed step.
+
+    Example:
+        >>> env = RosBagRecorder(gym.make("BubbleRob-v0"), "runs/demo", metadata={"policy": "me"})
+        >>> obs, info = env.reset(seed=0)  # doctest: +SKIP
+    """
+
+    def __init__(
+        self,
+        env: gym.Env[Any, Any],
+        path: str | Path,
+        format: str = "mcap",  # noqa: A002 - the natural name, as in the CLI's --format
+        distro: str | None = None,
+        compression: str | None = None,
+        topics: Topics | None = None,
+        overwrite: bool = False,
+        metadata: Mapping[str, Any] | None = None,
+        per_episode: bool = False,
+    ) -> None:
+        """Wrap ``env`` and create the bag.
+
+        Args:
+            env: A ``BubbleRob-v0`` env (made with ``gym.make`` so that replay can re-create it).
+            path: The bag (ROS 1: ``.bag`` file; ROS 2: directory). With ``per_episode``, a
+                directory that gets one bag per episode, ``episode_000000`` and on.
+            format: ``"mcap"`` (default), ``"sqlite3"`` or ``"ros1"``.
+            distro: ``"jazzy"`` (default) or ``"humble"`` for ROS 2 formats, ``"noetic"`` for ROS 1.
+            compression: MCAP: ``"zstd"`` (default) or ``"none"``; ROS 1: ``"none"`` (default),
+                ``"bz2"`` or ``"lz4"``.
+            topics: Topic names (default :class:`~bubblerob_env.ros.topics.Topics`).
+            overwrite: Replace existing bags instead of raising ``FileExistsError``.
+            metadata: JSON-able facts stored with every episode, e.g. ``{"policy": "reactive"}``.
+            per_episode: One bag per episode instead of one for all.
+        """
+        super().__init__(env)
+        if format not in FORMATS:
+            raise ValueError(f"unknown bag format {format!r}; choose one of {list(FORMATS)}")
+        self.format = format
+        self.distro = distro or DEFAULT_DISTRO[format]
+        self.compression = compression
+        self.topics = topics or Topics()
+        self.overwrite = overwrite
+        self.per_episode = per_episode
+        self.metadata = dict(_jsonable(metadata or {}))
+        clash = sorted(_RESERVED & set(self.metadata))
+        if clash:
+            raise ValueError(f"metadata keys {clash} are reserved for the recorder")
+        self.path = Path(path)
+        self.specs = EnvSpecs.from_env(env)
+        self._dt = float(env.unwrapped.dt)  # type: ignore[attr-defined]
+        self._dt_ns = round(self._dt * 1e9)
+        self._fanout = MessageFanout(self.specs, self.topics)
+        self._fanout.serializer(self.distro)  # compile now: errors before the first step
+        self._episodes: list[dict[str, Any]] = []
+        self._episode_count = 0
+        self._seq = 0
+        self._offset_ns = 0
+        self._last_ns: int | None = None  # latest frame stamp in the current bag
+        self._sink: BagSink | None = None
+        self._closed = False
+        self._bag_paths: list[Path] = []
+        self._open_bag(0)
+        self._token = safety.register(self._finish)
+
+    # -- bags -----------------------------------------------------------------------------------
+
+    @property
+    def bag_paths(self) -> list[Path]:
+        """Every bag this recorder has created so far."""
+        return list(self._bag_paths)
+
+    def _target(self, episode: int) -> Path:
+        if self.per_episode:
+            return self.path / f"episode_{episode:06d}"
+        return self.path
+
+    def _open_bag(self, episode: int) -> None:
+        sink = open_bag(
+            self._target(episode), self.format, self.distro, self.compression, self.overwrite
+        )
+        self._bag_paths.append(sink.path)
+        self._fanout.add_sink(sink)
+        self._sink = sink
+        self._episodes = []
+        self._last_ns = None
+
+    def _close_bag(self) -> None:
+        sink, self._sink = self._sink, None
+        if sink is None:
+            return
+        with safety.critical:
+            self._fanout.remove_sink(sink)
+            if self._episodes:  # kept small: ruamel.yaml dumps long strings slowly
+                summary = [{k: e[k] for k in _SUMMARY_KEYS} for e in self._episodes]
+                shared = {k: v for k, v in self._episodes[-1].items() if k not in _SHARED_KEYS}
+                sink.set_metadata(EPISODES_KEY, json.dumps(summary, sort_keys=True))
+                sink.set_metadata(RECORDING_KEY, json.dumps(shared, sort_keys=True))
+            sink.close()
+
+    def _finish(self) -> None:
+        """Close the bag (atexit and signal paths); the env is left alone."""
+        if not self._closed:
+            self._closed = True
+            self._close_bag()
+            safety.unregister(self._token)
+
+    # -- gym API --------------------------------------------------------------------------------
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[Any, dict[str, Any]]:
+        """Reset the env and record the first frame of a new episode."""
+        if self._closed:
+            raise RuntimeError(f"the recorder of {self.path} is closed")
+        with safety.critical:
+            if self.per_episode and self._episode_count > 0:
+                self._close_bag()
+                self._open_bag(self._episode_count)
+            rng_state = None
+            if seed is None:  # replay restores the generator instead of seeding it
+                rng_state = _jsonable(self.env.unwrapped.np_random.bit_generator.state)
+            obs, info = self.env.reset(seed=seed, options=options)
+            start = 0 if self._last_ns is None else self._last_ns + self._dt_ns
+            self._offset_ns = start - round(float(info["sim_time"]) * 1e9)
+            episode = {
+                "episode": self._episode_count,
+                "seed": seed,
+                "rng_state": rng_state,
+                "options": _jsonable(options),
+                **env_metadata(self.env),
+                "start_time_ns": start,
+                "first_seq": self._seq,
+                "dt": self._dt,
+                "distro": self.distro,
+                "format": self.format,
+                "topics": self.topics.to_dict(),
+                "bubblerob_version": _version(),
+                **self.metadata,
+            }
+            if self._last_ns is None:
+                self._fanout.write_records(lambda s: s.tf_static(start))
+            self._fanout.write_records(lambda s: [s.episode(episode, start)])
+            self._episodes.append(episode)
+            self._episode_count += 1
+            self._fanout.write_frame(obs, info, start, self._seq)
+            self._seq += 1
+            self._last_ns = start
+        return obs, info
+
+    def step(self, action: NDArray[Any]) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+        """Step the env and record the frame; the step is recorded whole or not at all."""
+        if self._last_ns is None or self._closed:
+            raise RuntimeError("call reset() before step() (and do not step a closed recorder)")
+        with safety.critical:
+            obs, reward, terminated, truncated, info = self.env.step(action)
+            stamp = self._offset_ns + round(float(info["sim_time"]) * 1e9)
+            self._fanout.write_frame(
+                obs,
+                info,
+                stamp,
+                self._seq,
+                action=np.asarray(action),
+                action_stamp_ns=self._last_ns,
+                reward=float(reward),
+                terminated=bool(terminated),
+                truncated=bool(truncated),
+            )
+            self._seq += 1
+            self._last_ns = stamp
+            if (terminated or truncated) and self._sink is not None:
+                self._sink.flush()
+        return obs, float(reward), terminated, truncated, info
+
+    def close(self) -> None:
+        """Finish the bag, then close the env."""
+        try:
+            self._finish()
+        finally:
+            super().close()
+
+
+def _version() -> str:
+    from bubblerob_env import __version__
+
+    return __version__
+
+
+def recorded_env_fns(
+    env_id: str,
+    num_envs: int,
+    directory: str | Path,
+    env_kwargs: Mapping[str, Any] | None = None,
+    **recorder_kwargs: Any,
+) -> list[Callable[[], gym.Env[Any, Any]]]:
+    """Env factories for a vector env in which every sub-env records its own bag.
+
+    Sub-env ``i`` records into ``directory/env_<i>`` (``.bag`` for ROS 1)::
+
+        envs = gym.vector.SyncVectorEnv(recorded_env_fns("BubbleRob-v0", 4, "runs/vec"))
+
+    Works with ``AsyncVectorEnv`` too: each worker process creates and finishes its own bag.
+    """
+    kwargs = dict(env_kwargs or {})
+    fmt = recorder_kwargs.get("format", "mcap")
+
+    def factory(index: int) -> Callable[[], gym.Env[Any, Any]]:
+        def make() -> gym.Env[Any, Any]:
+            env = gym.make(env_id, **kwargs)
+            return RosBagRecorder(env, Path(directory) / f"env_{index}", **recorder_kwargs)
+
+        return make
+
+    for index in range(num_envs):  # fail early, in this process, on an existing bag
+        target = bag_path(Path(directory) / f"env_{index}", fmt)
+        if target.exists() and not recorder_kwargs.get("overwrite", False):
+            raise FileExistsError(f"bag {target} already exists; pass overwrite=True")
+    return [factory(i) for i in range(num_envs)]

@@ -1,0 +1,112 @@
+"""A bag survives exceptions, Ctrl-C and SIGTERM with every completed step in it."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import textwrap
+
+import gymnasium as gym
+import pytest
+from ros_helpers import FORWARD, read_all
+
+from bubblerob_env.ros import RosBagRecorder
+from bubblerob_env.ros.bagread import read_summary
+
+CHILD = textwrap.dedent(
+    """
+    import sys
+    import gymnasium as gym
+    import numpy as np
+    import bubblerob_env
+    from bubblerob_env.ros import RosBagRecorder
+
+    path, fmt, mode = sys.argv[1], sys.argv[2], sys.argv[3]
+    env = RosBagRecorder(gym.make("BubbleRob-v0", max_episode_steps=40), path, format=fmt)
+    env.reset(seed=0)
+    action = np.array([0.6, 0.5], dtype=np.float32)
+    step = 0
+    while True:  # never closes the recorder itself
+        _, _, terminated, truncated, _ = env.step(action)
+        step += 1
+        print(step, flush=True)
+        if terminated or truncated:
+            env.reset()
+        if mode == "raise" and step == 25:
+            raise RuntimeError("the training loop crashed")
+    """
+)
+
+
+def _frames(path):
+    messages = read_all(path)
+    steps = len(messages["/cmd_vel"])
+    resets = len(read_summary(path).episodes)
+    # Every completed step is whole: its action, its observation and its reward are all there.
+    for topic in ("/bubblerob/action", "/reward", "/terminated", "/leftMotorSpeed"):
+        assert len(messages[topic]) == steps, topic
+    for topic in ("/scan", "/odom", "/tf", "/clock", "/proximity"):
+        assert len(messages[topic]) == steps + resets, topic
+    return steps
+
+
+def _run_child(tmp_path, fmt, mode, signum=None):
+    script = tmp_path / "child.py"
+    script.write_text(CHILD)
+    bag = tmp_path / "bag"
+    child = subprocess.Popen(
+        [sys.executable, str(script), str(bag), fmt, mode],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    printed = []
+    assert child.stdout is not None
+    for line in child.stdout:
+        printed.append(int(line))
+        if signum is not None and printed[-1] == 60:
+            child.send_signal(signum)
+            break
+    out, err = child.communicate(timeout=60)
+    printed += [int(line) for line in out.split()]
+    return child.returncode, printed[-1], err, bag
+
+
+@pytest.mark.parametrize("fmt", ["mcap", "sqlite3", "ros1"])
+def test_uncaught_exception_leaves_a_complete_bag(tmp_path, fmt):
+    returncode, last, err, bag = _run_child(tmp_path, fmt, "raise")
+    assert returncode == 1 and "the training loop crashed" in err
+    path = bag.with_suffix(".bag") if fmt == "ros1" else bag
+    assert _frames(path) == last == 25
+
+
+@pytest.mark.parametrize("fmt", ["mcap", "sqlite3", "ros1"])
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_signal_leaves_a_bag_with_every_completed_step(tmp_path, fmt, signum):
+    returncode, last, err, bag = _run_child(tmp_path, fmt, "loop", signum)
+    if signum == signal.SIGTERM:
+        assert returncode == 128 + signal.SIGTERM, err
+    else:
+        assert returncode in (1, -signal.SIGINT) and "KeyboardInterrupt" in err
+    path = bag.with_suffix(".bag") if fmt == "ros1" else bag
+    steps = _frames(path)
+    assert last <= steps <= last + 1  # the step under way when the signal came is finished
+
+
+def test_exception_inside_with_block_closes_the_bag(tmp_path):
+    env = gym.make("BubbleRob-v0")
+    with pytest.raises(RuntimeError), RosBagRecorder(env, tmp_path / "bag") as recorder:
+        recorder.reset(seed=0)
+        for _ in range(7):
+            recorder.step(FORWARD)
+        raise RuntimeError("policy failed")
+    assert _frames(recorder.bag_paths[0]) == 7
+
+
+def test_signal_handlers_are_restored_after_close(tmp_path):
+    before = signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGINT)
+    recorder = RosBagRecorder(gym.make("BubbleRob-v0"), tmp_path / "bag")
+    assert signal.getsignal(signal.SIGTERM) is not before[0]
+    recorder.close()
+    assert (signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGINT)) == before

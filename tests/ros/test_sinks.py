@@ -1,0 +1,153 @@
+"""Bag sinks: batch writes equal rosbags' own writes; bad paths fail early and clearly."""
+
+from __future__ import annotations
+
+import os
+import random
+import sqlite3
+from pathlib import Path
+
+import lz4.frame
+import pytest
+from rosbags import rosbag1, rosbag2
+from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin
+
+from bubblerob_env.ros.distros import typestore
+from bubblerob_env.ros.sinks import BagPathError, open_bag
+from bubblerob_env.ros.writers import Ros1Writer, Rosbag2Writer, roslz4_compress
+
+TOPICS = ("/a", "/b")
+
+
+@pytest.fixture
+def records():
+    rng = random.Random(0)
+    return [
+        (rng.randrange(2), 10**9 + i * 5_000_000, rng.randbytes(rng.randrange(1, 4000)))
+        for i in range(600)
+    ]
+
+
+@pytest.mark.parametrize("compression", [None, "BZ2"])
+def test_ros1_batch_writes_are_byte_identical_to_rosbags(tmp_path, records, compression):
+    files = []
+    for cls in (rosbag1.Writer, Ros1Writer):
+        path = tmp_path / cls.__name__ / "x.bag"
+        path.parent.mkdir()
+        writer = cls(path)
+        if compression:
+            writer.set_compression(rosbag1.Writer.CompressionFormat[compression])
+        writer.open()
+        connections = [
+            writer.add_connection(t, "std_msgs/msg/String", typestore=typestore("noetic"))
+            for t in TOPICS
+        ]
+        for cid, stamp, data in records:  # one record per batch: same chunk boundaries
+            if cls is rosbag1.Writer:
+                writer.write(connections[cid], stamp, data)
+            else:
+                writer.write_many([(TOPICS[cid], stamp, data)], {"/a": 0, "/b": 1})
+        writer.close()
+        files.append(path.read_bytes())
+    assert files[0] == files[1]
+
+
+@pytest.mark.parametrize(
+    ("plugin", "zstd"),
+    [(StoragePlugin.MCAP, False), (StoragePlugin.MCAP, True), (StoragePlugin.SQLITE3, False)],
+)
+def test_rosbag2_batch_writes_match_rosbags(tmp_path, records, plugin, zstd):
+    roots = []
+    for cls in (rosbag2.Writer, Rosbag2Writer):
+        root = tmp_path / cls.__name__ / "bag"
+        root.parent.mkdir()
+        writer = cls(root, version=9, storage_plugin=plugin)
+        if zstd:
+            writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+        writer.open()
+        connections = [
+            writer.add_connection(t, "std_msgs/msg/String", typestore=typestore("jazzy"))
+            for t in TOPICS
+        ]
+        ids = {t: c.id for t, c in zip(TOPICS, connections, strict=True)}
+        for cid, stamp, data in records:
+            if cls is rosbag2.Writer:
+                writer.write(connections[cid], stamp, data)
+            else:
+                writer.write_many([(TOPICS[cid], stamp, data)], ids)
+        writer.close()
+        roots.append(root)
+    assert (roots[0] / "metadata.yaml").read_text() == (roots[1] / "metadata.yaml").read_text()
+    if plugin == StoragePlugin.MCAP:
+        assert (roots[0] / "bag.mcap").read_bytes() == (roots[1] / "bag.mcap").read_bytes()
+    else:
+        query = "SELECT topic_id, timestamp, data FROM messages ORDER BY id"
+        rows = [sqlite3.connect(root / "bag.db3").execute(query).fetchall() for root in roots]
+        assert rows[0] == rows[1]
+
+
+def test_lz4_chunks_use_the_frame_flags_roslz4_requires():
+    frame = roslz4_compress(b"bubblerob" * 1000)
+    assert frame[:4] == b"\x04\x22\x4d\x18"  # LZ4 frame magic
+    flags = frame[4]
+    assert (flags >> 6) & 3 == 1  # version
+    assert (flags >> 5) & 1 == 1  # independent blocks
+    assert (flags >> 4) & 1 == 0  # no block checksum
+    assert (flags >> 3) & 1 == 0  # no content size
+    assert (flags >> 2) & 1 == 1  # content checksum
+    assert lz4.frame.decompress(frame) == b"bubblerob" * 1000
+
+
+@pytest.mark.parametrize("fmt", ["mcap", "sqlite3", "ros1"])
+def test_existing_bag_is_not_overwritten(tmp_path, fmt):
+    open_bag(tmp_path / "bag", fmt).close()
+    with pytest.raises(FileExistsError, match="overwrite=True"):
+        open_bag(tmp_path / "bag", fmt)
+    open_bag(tmp_path / "bag", fmt, overwrite=True).close()
+
+
+def test_overwrite_refuses_to_delete_a_directory_that_is_not_a_bag(tmp_path):
+    (tmp_path / "bag").mkdir()
+    (tmp_path / "bag" / "notes.txt").write_text("keep me")
+    with pytest.raises(BagPathError, match="not part of a bag"):
+        open_bag(tmp_path / "bag", "mcap", overwrite=True)
+    assert (tmp_path / "bag" / "notes.txt").exists()
+
+
+@pytest.mark.parametrize("fmt", ["mcap", "sqlite3", "ros1"])
+def test_path_under_a_file_fails_with_the_path_in_the_message(tmp_path, fmt):
+    (tmp_path / "file").write_text("")
+    with pytest.raises(BagPathError, match=str(tmp_path / "file")):
+        open_bag(tmp_path / "file" / "bag", fmt)
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes to read-only directories")
+@pytest.mark.parametrize("fmt", ["mcap", "sqlite3", "ros1"])
+def test_read_only_directory_fails_with_the_path_in_the_message(tmp_path, fmt):
+    locked = tmp_path / "locked"
+    locked.mkdir(mode=0o500)
+    with pytest.raises(BagPathError, match=str(locked)):
+        open_bag(locked / "bag", fmt)
+
+
+@pytest.mark.skipif(not Path("/proc/version").exists(), reason="needs Linux /proc")
+def test_read_only_filesystem_fails_with_the_path_in_the_message():
+    with pytest.raises(BagPathError, match="/proc/bubblerob_bag"):
+        open_bag("/proc/bubblerob_bag", "mcap")
+
+
+@pytest.mark.parametrize(
+    ("fmt", "distro", "compression", "message"),
+    [
+        ("rosbag3", None, None, "unknown bag format"),
+        ("ros1", "jazzy", None, "ROS 1"),
+        ("mcap", "noetic", None, "ROS 2"),
+        ("mcap", None, "bz2", "offers compression"),
+        ("sqlite3", None, "zstd", "offers compression"),
+        ("mcap", "iron", None, "unknown ROS distro"),
+    ],
+)
+def test_bad_format_options_are_rejected(tmp_path, fmt, distro, compression, message):
+    with pytest.raises(ValueError, match=message):
+        open_bag(tmp_path / "bag", fmt, distro, compression)
+    assert not (tmp_path / "bag").exists()
