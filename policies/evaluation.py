@@ -12,7 +12,17 @@ import numpy as np
 
 from policies.loading import load_policy
 
-__all__ = ["DEFAULT_EVAL_SEED", "EvalResult", "evaluate", "format_table", "record_video"]
+__all__ = [
+    "DEFAULT_EVAL_SEED",
+    "EpisodeStats",
+    "EvalResult",
+    "evaluate",
+    "format_table",
+    "record_video",
+    "run_episode",
+    "summarize",
+    "write_video",
+]
 
 DEFAULT_EVAL_SEED = 1000
 """First seed of evaluation episodes: training (seeds 0..n_envs-1, then unseeded resets) and its
@@ -32,6 +42,63 @@ class EvalResult:
     mean_return: float
 
 
+@dataclass(frozen=True)
+class EpisodeStats:
+    """One episode's outcome."""
+
+    length: int
+    total_reward: float
+    collided: bool
+    succeeded: bool
+    speed_fractions: tuple[float, ...]
+
+
+def run_episode(
+    env: gym.Env[Any, Any], policy: Any, seed: int, frames: list[np.ndarray] | None = None
+) -> EpisodeStats:
+    """Run one episode from ``seed`` with deterministic actions; append rendered frames if asked.
+
+    Success means the episode reached the time limit without a collision.
+    """
+    obs, _ = env.reset(seed=seed)
+    if frames is not None:
+        frames.append(env.render())
+    episode_start = True
+    total, speeds = 0.0, []
+    max_speed = env.unwrapped.max_linear_speed
+    while True:
+        action, _ = policy.predict(obs, episode_start=np.array([episode_start]), deterministic=True)
+        episode_start = False
+        obs, reward, terminated, truncated, info = env.step(action)
+        total += float(reward)
+        speeds.append(float(info["body_twist"][0]) / max_speed)
+        if frames is not None:
+            frames.append(env.render())
+        if terminated or truncated:
+            break
+    return EpisodeStats(
+        length=len(speeds),
+        total_reward=total,
+        collided=bool(info["collision"]),
+        succeeded=bool(truncated and not terminated),
+        speed_fractions=tuple(speeds),
+    )
+
+
+def summarize(policy_name: str, episodes: Sequence[EpisodeStats]) -> EvalResult:
+    """Aggregate episodes into one table row."""
+    count = len(episodes)
+    return EvalResult(
+        policy=policy_name,
+        episodes=count,
+        success_rate=sum(e.succeeded for e in episodes) / count,
+        collision_rate=sum(e.collided for e in episodes) / count,
+        mean_speed_fraction=float(np.mean([s for e in episodes for s in e.speed_fractions])),
+        mean_length=float(np.mean([e.length for e in episodes])),
+        mean_return=float(np.mean([e.total_reward for e in episodes])),
+    )
+
+
 def evaluate(
     policy_name: str,
     episodes: int = 100,
@@ -42,49 +109,19 @@ def evaluate(
 ) -> EvalResult:
     """Run ``episodes`` episodes from seeds ``seed, seed + 1, ...`` with deterministic actions.
 
-    Success means the episode reached the time limit without a collision. The speed fraction is
-    the mean measured forward speed over all steps divided by the env's ``max_linear_speed``.
+    The speed fraction is the mean measured forward speed over all steps divided by the env's
+    ``max_linear_speed``.
     """
     env = gym.make(env_id, **(env_kwargs or {}))
     policy = load_policy(policy_name, env)
-    successes = collisions = 0
-    speeds: list[float] = []
-    lengths: list[int] = []
-    returns: list[float] = []
-    episode_iter: Any = range(episodes)
+    seeds: Any = range(seed, seed + episodes)
     if progress:
         from tqdm import tqdm
 
-        episode_iter = tqdm(episode_iter, desc=f"evaluate {policy_name}", unit="episode")
-    for episode in episode_iter:
-        obs, _ = env.reset(seed=seed + episode)
-        episode_start = True
-        total, steps = 0.0, 0
-        while True:
-            action, _ = policy.predict(
-                obs, episode_start=np.array([episode_start]), deterministic=True
-            )
-            episode_start = False
-            obs, reward, terminated, truncated, info = env.step(action)
-            total += float(reward)
-            steps += 1
-            speeds.append(float(info["body_twist"][0]) / env.unwrapped.max_linear_speed)
-            if terminated or truncated:
-                break
-        collisions += bool(info["collision"])
-        successes += bool(truncated and not terminated)
-        lengths.append(steps)
-        returns.append(total)
+        seeds = tqdm(seeds, desc=f"evaluate {policy_name}", unit="episode")
+    stats = [run_episode(env, policy, episode_seed) for episode_seed in seeds]
     env.close()
-    return EvalResult(
-        policy=str(policy_name),
-        episodes=episodes,
-        success_rate=successes / episodes,
-        collision_rate=collisions / episodes,
-        mean_speed_fraction=float(np.mean(speeds)),
-        mean_length=float(np.mean(lengths)),
-        mean_return=float(np.mean(returns)),
-    )
+    return summarize(str(policy_name), stats)
 
 
 def format_table(results: Sequence[EvalResult], markdown: bool = False) -> str:
@@ -123,34 +160,31 @@ def record_video(
     size: int = 360,
 ) -> int:
     """Write one episode from the overhead view (laser drawn) as MP4 or GIF; returns its frames."""
-    import imageio.v3 as iio
-
     if path.suffix.lower() not in (".mp4", ".gif"):
         raise ValueError(f"video path must end in .mp4 or .gif, got {path}")
     kwargs = dict(env_kwargs or {}, render_mode="rgb_array", render_width=size, render_height=size)
     env = gym.make(env_id, **kwargs)
-    policy = load_policy(policy_name, env)
-    obs, _ = env.reset(seed=seed)
-    frames = [env.render()]
-    steps = 0
-    while max_steps is None or steps < max_steps:
-        action, _ = policy.predict(obs, deterministic=True)
-        obs, _, terminated, truncated, _ = env.step(action)
-        frames.append(env.render())
-        steps += 1
-        if terminated or truncated:
-            break
+    frames: list[np.ndarray] = []
+    run_episode(env, load_policy(policy_name, env), seed, frames)
     env.close()
-    fps = env.metadata["render_fps"]
+    write_video(path, frames, env.metadata["render_fps"])
+    return len(frames)
+
+
+def write_video(path: Path, frames: Sequence[np.ndarray], fps: int) -> None:
+    """Write frames as an MP4 (H.264) or a looping GIF, by the path's suffix."""
+    import imageio.v3 as iio
+
+    if path.suffix.lower() not in (".mp4", ".gif"):
+        raise ValueError(f"video path must end in .mp4 or .gif, got {path}")
     path.parent.mkdir(parents=True, exist_ok=True)
     if path.suffix.lower() == ".gif":
         iio.imwrite(path, np.stack(frames), duration=1000 / fps, loop=0)
     else:
         _write_mp4(path, frames, fps)
-    return len(frames)
 
 
-def _write_mp4(path: Path, frames: list[np.ndarray], fps: int) -> None:
+def _write_mp4(path: Path, frames: Sequence[np.ndarray], fps: int) -> None:
     import imageio.v2 as imageio
 
     with imageio.get_writer(path, fps=fps, codec="libx264", macro_block_size=8) as writer:
