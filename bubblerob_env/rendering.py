@@ -78,8 +78,8 @@ class OverheadRenderer:
                     dot = scene.geoms[scene.ngeom]
                     mujoco.mjv_initGeom(
                         dot,
-                        mujoco.mjtGeom.mjGEOM_SPHERE,
-                        np.full(3, 0.02),
+                        mujoco.mjtGeom.mjGEOM_BOX,
+                        np.full(3, 0.015),
                         point,
                         _IDENTITY,
                         _HIT_RGBA,

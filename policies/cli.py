@@ -1,4 +1,4 @@
-"""``bubblerob evaluate``: compare policies on held-out seeds in one table, optionally a video."""
+"""``bubblerob evaluate`` (policies side by side, optionally a video) and ``bubblerob demo``."""
 
 from __future__ import annotations
 
@@ -40,6 +40,25 @@ def add_subcommands(subparsers: Any) -> None:
     parser.add_argument("--markdown", action="store_true", help="print a Markdown table")
     parser.add_argument("--video", type=Path, help="also write the first policy's first episode")
     parser.set_defaults(handler=_run_evaluate)
+
+    demo = subparsers.add_parser(
+        "demo",
+        help="drive with the shipped policy: table, MCAP bag and video",
+        description="Run a policy (default: the shipped PPO) for a few episodes, print its "
+        "evaluation table, record the episodes as an MCAP bag and write a video.",
+    )
+    demo.add_argument("--policy", default="ppo", help="ppo (default), laser, reactive or a .zip")
+    demo.add_argument("--episodes", type=int, default=3)
+    demo.add_argument("--seed", type=int, default=DEFAULT_EVAL_SEED, help="first episode seed")
+    demo.add_argument("--out", type=Path, default=Path("demo_output"), help="output folder")
+    demo.add_argument("--no-video", action="store_true", help="skip the video")
+    demo.set_defaults(handler=_run_demo)
+
+
+def _run_demo(args: argparse.Namespace) -> int:
+    from policies.demo import main_demo
+
+    return main_demo(args.policy, args.episodes, args.seed, args.out, not args.no_video)
 
 
 def _run_evaluate(args: argparse.Namespace) -> int:
