@@ -1,0 +1,32 @@
+"""The benchmarks run (smoke only: speed is measured by running them, never by tests)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.mark.parametrize(
+    ("script", "expected_rows"),
+    [
+        ("env_speed.py", ["laser 360, no camera", "floor: mj_step", "Ant-v5"]),
+        ("record_speed.py", ["mcap", "ros1", "sqlite3"]),
+    ],
+)
+def test_benchmark_prints_its_table(script, expected_rows):
+    result = subprocess.run(
+        [sys.executable, str(ROOT / "bench" / script), "--quick"],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        cwd=ROOT,
+        check=False,
+    )
+    assert result.returncode == 0, result.stderr
+    for row in expected_rows:
+        assert row in result.stdout, f"{row!r} missing from\n{result.stdout}"
