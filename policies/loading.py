@@ -12,9 +12,12 @@ from bubblerob_env import BubbleRobEnv
 from policies.base import ActionMapper
 from policies.handwritten import LaserPolicy, RandomPolicy, ReactivePolicy
 
-__all__ = ["BUILTIN_POLICIES", "load_policy"]
+__all__ = ["BUILTIN_POLICIES", "SHIPPED_POLICIES", "load_policy"]
 
 BUILTIN_POLICIES = ("reactive", "laser", "random")
+TRAINED_DIR = Path(__file__).resolve().parent / "trained"
+SHIPPED_POLICIES = {"ppo": TRAINED_DIR / "ppo_bubblerob_v0.zip"}
+"""Trained policies shipped with the package, for ``gym.make("BubbleRob-v0")`` with no kwargs."""
 
 
 def _unwrap(env: gym.Env[Any, Any] | None) -> BubbleRobEnv:
@@ -30,8 +33,8 @@ def load_policy(name_or_path: str | Path, env: gym.Env[Any, Any] | None = None, 
     """A policy for ``env`` (default: ``BubbleRob-v0`` with default kwargs).
 
     Args:
-        name_or_path: ``"reactive"``, ``"laser"``, ``"random"`` or a path to an SB3 ``.zip``
-            (PPO or SAC).
+        name_or_path: ``"reactive"``, ``"laser"``, ``"random"``, ``"ppo"`` (the shipped trained
+            policy) or a path to an SB3 ``.zip`` (PPO or SAC).
         env: The env (or a wrapper of it) the policy will act in: its action type, speed limits
             and laser geometry shape the built-in controllers' actions.
         seed: Seed of the ``random`` policy.
@@ -40,6 +43,8 @@ def load_policy(name_or_path: str | Path, env: gym.Env[Any, Any] | None = None, 
         ValueError: For an unknown name or a file that is not an SB3 model.
     """
     name = str(name_or_path)
+    if name in SHIPPED_POLICIES:
+        return _load_sb3(SHIPPED_POLICIES[name])
     if name in BUILTIN_POLICIES:
         base = _unwrap(env)
         mapper = ActionMapper(
@@ -56,7 +61,8 @@ def load_policy(name_or_path: str | Path, env: gym.Env[Any, Any] | None = None, 
     if path.suffix == ".zip" and path.is_file():
         return _load_sb3(path)
     raise ValueError(
-        f"unknown policy {name!r}: use one of {list(BUILTIN_POLICIES)} or a path to an SB3 .zip"
+        f"unknown policy {name!r}: use one of {[*BUILTIN_POLICIES, *SHIPPED_POLICIES]} "
+        "or a path to an SB3 .zip"
     )
 
 
