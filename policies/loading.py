@@ -58,7 +58,9 @@ def load_policy(name_or_path: str | Path, env: gym.Env[Any, Any] | None = None, 
             return LaserPolicy(mapper, base.laser_spec)
         return RandomPolicy(mapper, seed)
     path = Path(name)
-    if path.suffix == ".zip" and path.is_file():
+    if path.suffix == ".zip":
+        if not path.is_file():
+            raise ValueError(f"policy file {path} does not exist")
         return _load_sb3(path)
     raise ValueError(
         f"unknown policy {name!r}: use one of {[*BUILTIN_POLICIES, *SHIPPED_POLICIES]} "

@@ -91,3 +91,8 @@ def test_laser_policy_needs_a_laser():
     env = gym.make("BubbleRob-v0", laser_num_rays=0)
     with pytest.raises(ValueError, match="needs an env with a laser"):
         load_policy("laser", env)
+
+
+def test_missing_model_file_is_named():
+    with pytest.raises(ValueError, match=r"policy file nowhere/model\.zip does not exist"):
+        load_policy("nowhere/model.zip")

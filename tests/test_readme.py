@@ -66,3 +66,36 @@ def test_readme_figure_command_writes_the_picture(tmp_path):
     assert result.returncode == 0, result.stderr
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert "docs/make_figures.py" in README
+
+
+def _run_section(heading: str, cwd: Path) -> subprocess.CompletedProcess[str]:
+    script = "set -euo pipefail\n" + _section_block(heading)
+    env = dict(os.environ, PATH=f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}")
+    return subprocess.run(
+        ["bash", "-c", script], cwd=cwd, env=env, capture_output=True, text=True, timeout=900,
+        check=False,
+    )
+
+
+def test_readme_record_info_replay_commands(tmp_path):
+    result = _run_section("Record, inspect and replay bags", tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert (tmp_path / "bags" / "bubblerob_laser_seed0").is_dir()
+    assert (tmp_path / "bags" / "bubblerob_reactive_seed5.bag").is_file()
+    assert "/scan" in result.stdout
+
+
+def test_readme_evaluate_and_train_commands(tmp_path):
+    result = _run_section("Evaluate and train", tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert (tmp_path / "laser.gif").is_file()
+    assert (tmp_path / "runs" / "quick" / "best_model.zip").is_file()
+    assert result.stdout.count("policy") >= 2  # two tables
+
+
+def test_readme_demo_command(tmp_path):
+    result = _run_section("Run the demo", tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert (tmp_path / "demo_output" / "bubblerob_demo_ppo").is_dir()
+    assert (tmp_path / "demo_output" / "bubblerob_demo_ppo.mp4").stat().st_size > 10_000
+    assert "success" in result.stdout
