@@ -16,6 +16,7 @@ ROOT = Path(__file__).resolve().parents[1]
     [
         ("env_speed.py", ["laser 360, no camera", "floor: mj_step", "Ant-v5"]),
         ("record_speed.py", ["mcap", "ros1", "sqlite3"]),
+        ("train_speed.py", ["HalfCheetah-v5, 1 env (anchor)", "2 envs, SubprocVecEnv"]),
     ],
 )
 def test_benchmark_prints_its_table(script, expected_rows):

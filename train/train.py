@@ -61,6 +61,18 @@ def load_hyperparams(algo: str, env_id: str) -> dict[str, Any]:
     return dict(table[env_id])
 
 
+def _schedules(config: dict[str, Any]) -> dict[str, Any]:
+    """rl-zoo's ``lin_<value>``: a value decaying linearly to 0 over training (for lr, clip)."""
+    resolved = {}
+    for key, value in config.items():
+        if isinstance(value, str) and value.startswith("lin_"):
+            start = float(value[len("lin_") :])
+            resolved[key] = lambda progress_remaining, start=start: progress_remaining * start
+        else:
+            resolved[key] = value
+    return resolved
+
+
 def _versions() -> dict[str, str]:
     names = ("bubblerob", "mujoco", "gymnasium", "stable-baselines3", "torch", "numpy")
     found = {}
@@ -80,7 +92,7 @@ def train(
     timesteps: int | None = None,
     n_envs: int | None = None,
     seed: int = 0,
-    eval_freq: int = 20_000,
+    eval_freq: int = 50_000,
     eval_episodes: int = 10,
     progress_bar: bool = True,
     command: str | None = None,
@@ -147,7 +159,9 @@ def train(
         envs = VecNormalize(envs, gamma=float(config.get("gamma", 0.99)))
         eval_env = VecNormalize(eval_env, training=False, norm_reward=False)
     algo_cls = {"ppo": PPO, "sac": SAC}[algo]
-    algo_kwargs = {k: v for k, v in config.items() if k not in (*_NOT_ALGO_KWARGS, "seed")}
+    algo_kwargs = _schedules(
+        {k: v for k, v in config.items() if k not in (*_NOT_ALGO_KWARGS, "seed")}
+    )
     model = algo_cls(
         config["policy"],
         envs,
@@ -204,7 +218,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--timesteps", type=int, help="override n_timesteps from the YAML")
     parser.add_argument("--n-envs", type=int, help="override n_envs (SubprocVecEnv when > 1)")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--eval-freq", type=int, default=20_000, help="env steps between evals")
+    parser.add_argument("--eval-freq", type=int, default=50_000, help="env steps between evals")
     parser.add_argument("--eval-episodes", type=int, default=10)
     parser.add_argument("--out", type=Path, help="output folder (default runs/<algo>-<env>-<seed>)")
     parser.add_argument(
