@@ -19,15 +19,16 @@ QUICKSTART = [
         "import gymnasium as gym\n"
         "import matplotlib.pyplot as plt\n"
         "import numpy as np\n\n"
-        "import bubblerob_env  # registers BubbleRob-v0\n\n"
+        "import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)\n\n"
         'env = gym.make("BubbleRob-v0", camera=True, render_mode="rgb_array")\n'
+        "action = np.array([0.6, 0.4], np.float32)\n"
         "obs, info = env.reset(seed=0)\n"
         "print(env.observation_space)\n"
         "print(env.action_space)\n"
         "for _ in range(20):\n"
-        "    obs, reward, terminated, truncated, info = env.step(np.array([0.6, 0.4], np.float32))\n"
-        "print(f\"t={info['sim_time']:.2f} s, pose=({info['x']:.2f}, {info['y']:.2f}, "
-        "{info['yaw']:.2f}), reward={reward:.3f}\")"
+        "    obs, reward, terminated, truncated, info = env.step(action)\n"
+        "print(f\"t={info['sim_time']:.2f} s, pose=({info['x']:.2f}, {info['y']:.2f}, \"\n"
+        "      f\"{info['yaw']:.2f}), reward={reward:.3f}\")"
     ),
     new_markdown_cell(
         "The laser scan in polar form: ray 0 at `angle_min` (-180 degrees), counter-clockwise, "
@@ -44,8 +45,10 @@ QUICKSTART = [
     ),
     new_code_cell(
         "fig, axes = plt.subplots(1, 2, figsize=(8, 4))\n"
-        'axes[0].imshow(obs["camera"]); axes[0].set_title("camera (64x64)")\n'
-        'axes[1].imshow(env.render()); axes[1].set_title("overhead, laser drawn")\n'
+        'axes[0].imshow(obs["camera"])\n'
+        'axes[0].set_title("camera (64x64)")\n'
+        "axes[1].imshow(env.render())\n"
+        'axes[1].set_title("overhead, laser drawn")\n'
         "for ax in axes:\n"
         "    ax.axis('off')\n"
         "plt.show()"
@@ -110,7 +113,8 @@ TRAINING = [
         "log = np.load(out / 'evaluations.npz')\n"
         "fig, ax = plt.subplots(figsize=(5, 3))\n"
         "ax.plot(log['timesteps'], log['results'].mean(axis=1), marker='o')\n"
-        "ax.set_xlabel('env steps'); ax.set_ylabel('mean evaluation return')\n"
+        "ax.set_xlabel('env steps')\n"
+        "ax.set_ylabel('mean evaluation return')\n"
         "ax.set_title('learning curve (tiny budget)')\n"
         "plt.show()"
     ),

@@ -7,12 +7,15 @@
 - :mod:`~bubblerob_env.ros.sinks`: ROS 1 ``.bag`` and ROS 2 MCAP / sqlite3 bag files.
 - :mod:`~bubblerob_env.ros.recorder`: the ``RosBagRecorder`` wrapper.
 - :mod:`~bubblerob_env.ros.bagread`, :mod:`~bubblerob_env.ros.replay`: reading bags back, replay.
+- :mod:`~bubblerob_env.ros.live`: ``bubblerob node`` and the ``RosLivePublisher`` wrapper (live
+  ROS 1 through ``rospy``; ROS 2 through ``rclpy``, untested).
 """
 
 from __future__ import annotations
 
 from bubblerob_env.ros.convert import EnvSpecs, RosConverter
 from bubblerob_env.ros.distros import DISTROS
+from bubblerob_env.ros.live import LiveSink, RosLivePublisher, SimNode
 from bubblerob_env.ros.recorder import RosBagRecorder, recorded_env_fns
 from bubblerob_env.ros.serialize import FrameSerializer, MessageFanout
 from bubblerob_env.ros.sinks import COMPRESSIONS, FORMATS, BagPathError, BagSink, open_bag
@@ -27,9 +30,12 @@ __all__ = [
     "BagSink",
     "EnvSpecs",
     "FrameSerializer",
+    "LiveSink",
     "MessageFanout",
     "RosBagRecorder",
     "RosConverter",
+    "RosLivePublisher",
+    "SimNode",
     "Topics",
     "open_bag",
     "recorded_env_fns",

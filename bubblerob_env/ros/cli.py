@@ -69,6 +69,10 @@ def add_subcommands(subparsers: Any) -> None:
     replay.add_argument("--episodes", type=int, default=None, help="replay only the first N")
     replay.set_defaults(handler=_replay)
 
+    from bubblerob_env.ros.live.cli import add_node_subcommand
+
+    add_node_subcommand(subparsers)
+
 
 def _load_policy(name: str, env: gym.Env[Any, Any], seed: int) -> Any:
     """The policy called ``name`` (from the ``policies`` package)."""

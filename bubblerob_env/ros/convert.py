@@ -112,6 +112,8 @@ class RosConverter:
             n.lower(): n for n, _ in self.store.fielddefs["sensor_msgs/msg/CameraInfo"][1]
         }
         self._range_fields = {n for n, _ in self.store.fielddefs["sensor_msgs/msg/Range"][1]}
+        self._proximity_min = specs.proximity.range_min
+        self._proximity_max = specs.proximity.range_max
 
     def frame_keys(self, stepped: bool) -> tuple[str, ...]:
         """Keys of the messages of a frame: after ``reset`` (``stepped=False``) or a ``step``."""
@@ -143,26 +145,32 @@ class RosConverter:
         truncated: bool = False,
     ) -> dict[str, Any]:
         """Field values of one frame; ``action`` is ``None`` after a ``reset``."""
-        sec, nanosec = split_stamp(stamp_ns)
+        # Called every step while recording: kept to plain calls, numpy only for the scan.
+        sec, nanosec = divmod(stamp_ns, 1_000_000_000)
         px, py, pz = info["position"].tolist()
         qw, qx, qy, qz = info["quaternion_wxyz"].tolist()
         vx, vy, vz, wx, wy, wz = info["body_twist"].tolist()
+        proximity = obs["proximity"].item(0)
+        if proximity >= self._proximity_max:  # REP 117
+            proximity = math.inf
+        elif proximity < self._proximity_min:
+            proximity = -math.inf
         values: dict[str, Any] = {
             "sec": sec,
             "nanosec": nanosec,
             "seq": seq & 0xFFFFFFFF,
             "sim_time": stamp_ns * 1e-9,
-            "proximity": _rep117(float(obs["proximity"][0]), self.specs.proximity),
+            "proximity": proximity,
             "triggered": bool(info["proximity_triggered"]),
             "px": px, "py": py, "pz": pz,
             "qx": qx, "qy": qy, "qz": qz, "qw": qw,
             "vx": vx, "vy": vy, "vz": vz, "wx": wx, "wy": wy, "wz": wz,
         }  # fmt: skip
-        if self.specs.laser is not None:
-            spec = self.specs.laser
-            ranges = np.array(obs["laser"], dtype="<f4")  # a copy
-            ranges[ranges >= spec.range_max] = np.inf
-            ranges[ranges < spec.range_min] = -np.inf
+        laser = self.specs.laser
+        if laser is not None:
+            ranges = obs["laser"].astype("<f4")  # a copy
+            ranges[ranges >= laser.range_max] = np.inf
+            ranges[ranges < laser.range_min] = -np.inf
             values["ranges"] = ranges.tobytes()
         if self.specs.camera is not None:
             values["image"] = np.ascontiguousarray(obs["camera"], dtype=np.uint8).tobytes()
@@ -175,16 +183,14 @@ class RosConverter:
                 angular = angular_action * self.specs.max_angular_speed
             else:
                 linear, angular = self.specs.drive.body_twist(left, right)
-            values.update(
-                action=raw.tobytes(),
-                left=left,
-                right=right,
-                linear_x=float(linear),
-                angular_z=float(angular),
-                reward=float(reward),
-                terminated=bool(terminated),
-                truncated=bool(truncated),
-            )
+            values["action"] = raw.tobytes()
+            values["left"] = left
+            values["right"] = right
+            values["linear_x"] = float(linear)
+            values["angular_z"] = float(angular)
+            values["reward"] = float(reward)
+            values["terminated"] = bool(terminated)
+            values["truncated"] = bool(truncated)
         return values
 
     def slots(self) -> dict[str, Slot]:
@@ -381,14 +387,6 @@ class RosConverter:
     def episode(self, metadata: Mapping[str, Any]) -> Any:
         """``/bubblerob/episode``: the episode's metadata as a JSON ``std_msgs/String``."""
         return self._msg("episode", data=json.dumps(metadata, sort_keys=True))
-
-
-def _rep117(reading: float, spec: ProximitySpec) -> float:
-    if reading >= spec.range_max:
-        return math.inf
-    if reading < spec.range_min:
-        return -math.inf
-    return reading
 
 
 def _array(value: Any, dtype: type[np.generic]) -> Any:

@@ -14,7 +14,7 @@ The bytes are those ``rosbags`` would produce (``serialize_cdr`` little-endian o
 from __future__ import annotations
 
 import struct
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -22,7 +22,15 @@ import numpy as np
 from rosbags.interfaces import Nodetype
 from rosbags.typesys.store import Typestore
 
-__all__ = ["CDR_HEADER", "CompiledMessage", "Slot", "compile_message"]
+__all__ = [
+    "CDR_HEADER",
+    "PAD",
+    "CompiledMessage",
+    "Item",
+    "Slot",
+    "compile_items",
+    "compile_message",
+]
 
 CDR_HEADER = b"\x00\x01\x00\x00"
 """Encapsulation header of a little-endian CDR message."""
@@ -56,13 +64,30 @@ class Slot:
     count: int | None = None
 
 
+Item = tuple[str, Any]
+"""One ``struct`` code and its value: a constant, a :class:`Slot`, or :data:`PAD` for padding."""
+
+PAD = object()
+"""The value of a padding item (``"3x"``): it takes no argument."""
+
+
 class CompiledMessage:
-    """A message type with fixed shape, compiled for one encoding."""
+    """A message type (or a whole frame of records) with fixed shape, compiled for one encoding.
+
+    Runs of constants (frame ids, sensor geometry, lengths, padding) are packed once, when
+    compiling, into one byte string each; each call packs only the slots between them.
+    """
 
     def __init__(
-        self, layout: struct.Struct, template: list[Any], slots: list[tuple[int, str]]
+        self,
+        layout: struct.Struct,
+        template: list[Any],
+        slots: list[tuple[int, str]],
+        items: tuple[Item, ...] = (),
     ) -> None:
         self.size = layout.size
+        self.items = items
+        """The unfolded items (``compile_message``/``compile_items`` keep them for framing)."""
         self.slot_names = tuple(name for _, name in slots)
         # One generated call: pack(c0, v["sec"], c2, ...), constants bound as defaults. The code
         # holds only argument names and the slot names (checked to be identifiers), no values.
@@ -84,44 +109,64 @@ class CompiledMessage:
         return self._encode(values)  # type: ignore[no-any-return]
 
 
+def compile_items(items: Sequence[Item]) -> CompiledMessage:
+    """Compile little-endian ``items`` (constants folded into byte strings) into one call."""
+    fmt = ["<"]
+    args: list[Any] = []
+    slots: list[tuple[int, str]] = []
+    codes: list[str] = []
+    constants: list[Any] = []
+
+    def fold() -> None:
+        if codes:
+            data = struct.pack("<" + "".join(codes), *constants)
+            fmt.append(f"{len(data)}s")
+            args.append(data)
+            codes.clear()
+            constants.clear()
+
+    for code, value in items:
+        if isinstance(value, Slot):
+            fold()
+            slots.append((len(args), value.name))
+            fmt.append(code)
+            args.append(None)
+        else:
+            codes.append(code)
+            if value is not PAD:
+                constants.append(value)
+    fold()
+    return CompiledMessage(struct.Struct("".join(fmt)), args, slots, tuple(items))
+
+
 class _Compiler:
     def __init__(self, store: Typestore, cdr: bool) -> None:
         self.store = store
         self.cdr = cdr
-        self.fmt = ["<"]
-        self.args: list[Any] = []
-        self.slots: list[tuple[int, str]] = []
+        self.items: list[Item] = []
         self.pos = 0  # offset in the payload (after the CDR encapsulation header)
 
     def align(self, size: int) -> None:
         if self.cdr and self.pos % size:
             pad = size - self.pos % size
-            self.fmt.append(f"{pad}x")
+            self.items.append((f"{pad}x", PAD))
             self.pos += pad
 
     def put(self, code: str, value: Any) -> None:
         size = struct.calcsize("<" + code)
         self.align(size)
-        self.fmt.append(code)
+        self.items.append((code, value))
         self.pos += size
-        if isinstance(value, Slot):
-            self.slots.append((len(self.args), value.name))
-            self.args.append(None)
-        else:
-            self.args.append(value)
 
     def blob(self, value: Any, elem: str, count: int) -> None:
         """``count`` elements of base type ``elem`` as raw bytes (a slot or constant values)."""
         size = struct.calcsize("<" + _CODES[elem]) * count
         if count:
             self.align(struct.calcsize("<" + _CODES[elem]))
-        self.fmt.append(f"{size}s")
         self.pos += size
-        if isinstance(value, Slot):
-            self.slots.append((len(self.args), value.name))
-            self.args.append(None)
-        else:
-            self.args.append(np.asarray(value, dtype="<" + _CODES[elem]).tobytes())
+        if not isinstance(value, Slot):
+            value = np.asarray(value, dtype="<" + _CODES[elem]).tobytes()
+        self.items.append((f"{size}s", value))
 
     def string(self, value: Any) -> None:
         if not isinstance(value, str):
@@ -130,9 +175,8 @@ class _Compiler:
         if self.cdr:
             data += b"\0"
         self.put("I", len(data))
-        self.fmt.append(f"{len(data)}s")
+        self.items.append((f"{len(data)}s", data))
         self.pos += len(data)
-        self.args.append(data)
 
     def message(self, msgtype: str, obj: Any) -> None:
         _, fields = self.store.fielddefs[msgtype]
@@ -187,8 +231,6 @@ def compile_message(
         raise ValueError(f"encoding must be 'cdr' or 'ros1', got {encoding!r}")
     compiler = _Compiler(store, cdr=encoding == "cdr")
     if compiler.cdr:
-        compiler.fmt.append("4s")
-        compiler.args.append(CDR_HEADER)
+        compiler.items.append(("4s", CDR_HEADER))
     compiler.message(msgtype, template)
-    layout = struct.Struct("".join(compiler.fmt))
-    return CompiledMessage(layout, compiler.args, compiler.slots)
+    return compile_items(compiler.items)

@@ -4,22 +4,77 @@
 to serialise each (compiled once, see :mod:`~bubblerob_env.ros.encode`). :class:`MessageFanout`
 turns a frame into field values once, serialises it once per distro among its sinks, and gives
 the same bytes to each sink: a recorder has one sink; live publishing adds more.
+
+Bag sinks that frame records themselves (MCAP, ROS 1: :meth:`~bubblerob_env.ros.sinks.BagSink.
+framing`) get the whole frame, record headers included, from one generated ``struct`` call of a
+:class:`FramePacker`; other sinks of that distro get records sliced from those bytes.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import struct
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from numpy.typing import NDArray
 
 from bubblerob_env.ros.convert import EnvSpecs, RosConverter
-from bubblerob_env.ros.encode import CompiledMessage, compile_message
+from bubblerob_env.ros.encode import CompiledMessage, Item, compile_items, compile_message
 from bubblerob_env.ros.sinks import BagSink
 from bubblerob_env.ros.topics import LATCHED_TOPICS, MSGTYPES, Topics
-from bubblerob_env.ros.writers import Record
+from bubblerob_env.ros.writers import FrameLayout, Framing, Record
 
-__all__ = ["FrameSerializer", "MessageFanout"]
+__all__ = ["FramePacker", "FrameSerializer", "MessageFanout"]
+
+_Plan = list[tuple[str, CompiledMessage, bool]]  # (topic, encoder, logged at the action stamp)
+
+
+class FramePacker:
+    """One frame's records, each behind its :class:`~bubblerob_env.ros.writers.Framing` header.
+
+    The whole frame is packed by one ``struct`` call (constants folded, see
+    :func:`~bubblerob_env.ros.encode.compile_items`); :attr:`layout` tells the writer where each
+    record starts, so that it can index them when the chunk closes.
+    """
+
+    def __init__(self, plan: _Plan, framing: Framing) -> None:
+        items: list[Item] = []
+        channels, offsets, action = [], [], []
+        self._payloads: list[tuple[str, int, int, bool]] = []
+        ids = dict(framing.ids)
+        pos = 0
+        for topic, encoder, is_action in plan:
+            header = framing.header(topic, encoder.size, is_action)
+            head = struct.calcsize("<" + "".join(code for code, _ in header))
+            channels.append(ids[topic])
+            offsets.append(pos)
+            action.append(is_action)
+            self._payloads.append((topic, pos + head, pos + head + encoder.size, is_action))
+            items += header
+            items += encoder.items
+            pos += head + encoder.size
+        self._compiled = compile_items(items)
+        assert self._compiled.size == pos
+        self.layout = FrameLayout(tuple(channels), tuple(offsets), tuple(action), pos)
+        self._ros1 = framing.kind == "ros1"
+
+    def pack(self, values: dict[str, Any], stamp_ns: int, action_stamp_ns: int) -> bytes:
+        """The frame's bytes; adds the log-time slots to ``values``."""
+        values["log_ns"] = stamp_ns
+        values["action_log_ns"] = action_stamp_ns
+        if self._ros1:
+            values["log_sec"], values["log_nsec"] = divmod(stamp_ns, 1_000_000_000)
+            values["action_log_sec"], values["action_log_nsec"] = divmod(
+                action_stamp_ns, 1_000_000_000
+            )
+        return self._compiled.encode(values)
+
+    def records(self, data: bytes, stamp_ns: int, action_stamp_ns: int) -> list[Record]:
+        """The frame's records, their messages sliced from packed ``data``."""
+        return [
+            (topic, action_stamp_ns if is_action else stamp_ns, data[start:end])
+            for topic, start, end, is_action in self._payloads
+        ]
 
 
 class FrameSerializer:
@@ -34,7 +89,7 @@ class FrameSerializer:
         slots = self.converter.slots()
         action_keys = set(self.converter.action_keys())
 
-        def plan(stepped: bool) -> list[tuple[str, CompiledMessage, bool]]:
+        def plan(stepped: bool) -> _Plan:
             return [
                 (self.names[key], encoders[key], key in action_keys)
                 for key in self.converter.frame_keys(stepped)
@@ -47,6 +102,14 @@ class FrameSerializer:
             if key in self.names
         }
         self._plans = {False: plan(False), True: plan(True)}
+        self._packers: dict[tuple[Framing, bool], FramePacker] = {}
+
+    def packer(self, framing: Framing, stepped: bool) -> FramePacker:
+        """The packer of frames after a ``step`` (or a ``reset``) for ``framing`` (cached)."""
+        key = (framing, stepped)
+        if key not in self._packers:
+            self._packers[key] = FramePacker(self._plans[stepped], framing)
+        return self._packers[key]
 
     def topics(self) -> list[tuple[str, str, bool]]:
         """``(name, msgtype, latched)`` of every topic a bag of these frames holds."""
@@ -81,6 +144,9 @@ class FrameSerializer:
         return (self.names["episode"], stamp_ns, self._serialize("episode", message))
 
 
+_Route = tuple[BagSink, Framing | None]
+
+
 class MessageFanout:
     """Frames in, serialised records out to every sink; each message serialised once per distro."""
 
@@ -89,6 +155,7 @@ class MessageFanout:
         self.topics = topics
         self._serializers: dict[str, FrameSerializer] = {}
         self._sinks: dict[str, list[BagSink]] = {}
+        self._routes: dict[str, list[_Route]] = {}  # per distro: packing sinks first
 
     def serializer(self, distro: str) -> FrameSerializer:
         """The serializer of ``distro`` (made on first use)."""
@@ -98,15 +165,29 @@ class MessageFanout:
 
     def add_sink(self, sink: BagSink) -> None:
         """Start sending to ``sink``, declaring every topic in it."""
-        for name, msgtype, latched in self.serializer(sink.distro).topics():
+        serializer = self.serializer(sink.distro)
+        for name, msgtype, latched in serializer.topics():
             sink.add_topic(name, msgtype, latched)
+        framing = sink.framing()
+        if framing is not None:  # compile now: errors before the first frame
+            serializer.packer(framing, False)
+            serializer.packer(framing, True)
         self._sinks.setdefault(sink.distro, []).append(sink)
+        self._update_routes(sink.distro)
 
     def remove_sink(self, sink: BagSink) -> None:
         """Stop sending to ``sink`` (it is not closed)."""
         self._sinks[sink.distro].remove(sink)
         if not self._sinks[sink.distro]:
             del self._sinks[sink.distro]
+        self._update_routes(sink.distro)
+
+    def _update_routes(self, distro: str) -> None:
+        routes = [(sink, sink.framing()) for sink in self._sinks.get(distro, [])]
+        if routes:
+            self._routes[distro] = sorted(routes, key=lambda route: route[1] is None)
+        else:
+            self._routes.pop(distro, None)
 
     @property
     def sinks(self) -> list[BagSink]:
@@ -126,17 +207,45 @@ class MessageFanout:
         truncated: bool = False,
     ) -> None:
         """Send one frame (``action=None``: a reset) to every sink."""
-        if not self._sinks:
+        if not self._routes:
             return
-        first = self.serializer(next(iter(self._sinks)))
+        first = self._serializers[next(iter(self._routes))]
         values = first.converter.frame_values(
             obs, info, stamp_ns, seq, action, reward, terminated, truncated
         )
         stepped = action is not None
         action_stamp = stamp_ns if action_stamp_ns is None else action_stamp_ns
-        for distro, sinks in self._sinks.items():
-            records = self._serializers[distro].frame(values, stamp_ns, action_stamp, stepped)
-            for sink in sinks:
+        for distro, routes in self._routes.items():
+            self._send(distro, routes, values, stamp_ns, action_stamp, stepped)
+
+    def _send(
+        self,
+        distro: str,
+        routes: Sequence[_Route],
+        values: dict[str, Any],
+        stamp_ns: int,
+        action_stamp: int,
+        stepped: bool,
+    ) -> None:
+        serializer = self._serializers[distro]
+        packed: dict[Framing, bytes] = {}
+        records: list[Record] | None = None
+        for sink, framing in routes:
+            if framing is not None:
+                packer = serializer.packer(framing, stepped)
+                data = packed.get(framing)
+                if data is None:
+                    data = packed[framing] = packer.pack(values, stamp_ns, action_stamp)
+                sink.write_packed(data, packer.layout, stamp_ns, action_stamp)
+            else:
+                if records is None:
+                    if packed:  # slice the messages out of a packed frame: serialised once
+                        framing, data = next(iter(packed.items()))
+                        records = serializer.packer(framing, stepped).records(
+                            data, stamp_ns, action_stamp
+                        )
+                    else:
+                        records = serializer.frame(values, stamp_ns, action_stamp, stepped)
                 sink.write_batch(records)
 
     def write_records(self, make: Any) -> None:

@@ -2,6 +2,8 @@
 
 A sink takes messages already serialised for its distro, in batches (one batch per env frame),
 and writes them with the ``rosbags`` writers (batched, see :mod:`~bubblerob_env.ros.writers`).
+MCAP and ROS 1 sinks also take *packed frames*: a frame's records, headers included, in one byte
+string laid out by the sink's :meth:`BagSink.framing`.
 A bag becomes readable by every tool when :meth:`BagSink.close` writes its index; the recorder
 closes it from its ``close``, an ``atexit`` hook and its signal handlers
 (:mod:`~bubblerob_env.ros.safety`). :meth:`BagSink.flush` puts everything so far on disk after
@@ -29,7 +31,14 @@ from rosbags.interfaces import (
 from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin
 
 from bubblerob_env.ros.distros import get_distro, message_definition
-from bubblerob_env.ros.writers import Record, Ros1Writer, Rosbag2Writer
+from bubblerob_env.ros.writers import (
+    FrameLayout,
+    Framing,
+    Record,
+    Ros1Writer,
+    Rosbag2Writer,
+    mcap_zstd_compress,
+)
 
 __all__ = [
     "COMPRESSIONS",
@@ -116,6 +125,14 @@ class BagSink:
         """Append messages; topics must have been added."""
         raise NotImplementedError
 
+    def framing(self) -> Framing | None:
+        """How this sink frames records, if it takes packed frames (:meth:`write_packed`)."""
+        return None
+
+    def write_packed(self, data: bytes, layout: FrameLayout, stamp_ns: int, action_ns: int) -> None:
+        """Append one packed frame: records framed by :meth:`framing`, laid out as ``layout``."""
+        raise NotImplementedError
+
     def set_metadata(self, key: str, value: str) -> None:
         """Bag-level metadata (ROS 2 ``custom_data``, also in MCAP's metadata); ROS 1: ignored."""
 
@@ -155,6 +172,12 @@ class _Ros1Sink(BagSink):
 
     def write_batch(self, records: Sequence[Record]) -> None:
         self._writer.write_many(records, self._ids)
+
+    def framing(self) -> Framing | None:
+        return Framing("ros1", tuple(self._ids.items()))
+
+    def write_packed(self, data: bytes, layout: FrameLayout, stamp_ns: int, action_ns: int) -> None:
+        self._writer.write_packed(data, layout, stamp_ns, action_ns)
 
     def flush(self) -> None:
         self._writer.flush()
@@ -197,6 +220,8 @@ class _Rosbag2Sink(BagSink):
         if compression == "zstd":  # MCAP chunk compression, as `ros2 bag record` does it
             self._writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
         self._writer.open()
+        if compression == "zstd":
+            self._writer.storage.compressor = mcap_zstd_compress  # type: ignore[union-attr]
 
     def add_topic(self, topic: str, msgtype: str, latched: bool = False) -> None:
         text, digest = message_definition(self.distro, msgtype)
@@ -208,6 +233,12 @@ class _Rosbag2Sink(BagSink):
     def write_batch(self, records: Sequence[Record]) -> None:
         if records:
             self._writer.write_many(records, self._ids)
+
+    def framing(self) -> Framing | None:
+        return Framing("mcap", tuple(self._ids.items())) if self.format == "mcap" else None
+
+    def write_packed(self, data: bytes, layout: FrameLayout, stamp_ns: int, action_ns: int) -> None:
+        self._writer.write_packed(data, layout, stamp_ns, action_ns)
 
     def set_metadata(self, key: str, value: str) -> None:
         self._writer.set_custom_data(key, value)

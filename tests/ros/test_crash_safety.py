@@ -59,16 +59,17 @@ def _run_child(tmp_path, fmt, mode, signum=None):
         [sys.executable, str(script), str(bag), fmt, mode],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
-        text=True,
+        bufsize=0,  # unbuffered: lines read ahead of the signal would be lost to communicate()
     )
     printed = []
     assert child.stdout is not None
-    for line in child.stdout:
+    for line in iter(child.stdout.readline, b""):  # a raw pipe reads no further than each line
         printed.append(int(line))
         if signum is not None and printed[-1] == 60:
             child.send_signal(signum)
             break
-    out, err = child.communicate(timeout=60)
+    out, err_bytes = child.communicate(timeout=60)
+    err = err_bytes.decode()
     printed += [int(line) for line in out.split()]
     return child.returncode, printed[-1], err, bag
 

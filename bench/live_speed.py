@@ -1,0 +1,165 @@
+"""Steps/s of ``bubblerob node --rate-factor max`` and messages/s a separate subscriber receives.
+
+Usage: ``python bench/live_speed.py [--steps N] [--quick]``
+
+Starts its own ``rosmaster`` on a free loopback port. For the camera off and at 64x64, a
+subscriber process (Debian's ``/usr/bin/python3`` + ``rospy``, raw ``AnyMsg`` on every topic the
+node publishes) connects first, then starts the node's simulation (``startSimulation``); the node
+runs ``N`` steps flat out. Reported: the env alone (no ROS, same process), the node's steps/s and
+messages published/s, and the messages/s received with the share of published ones that arrived.
+Needs Debian's ROS 1 (``python3-rospy``, ``python3-rosmaster``, ``python3-std-msgs``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import socket
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
+from bubblerob_env.ros.live.ros1 import check_master
+
+SUBSCRIBER = textwrap.dedent(
+    """
+    import json, sys, threading, time
+    import rospy
+    from std_msgs.msg import Bool
+    steps = int(sys.argv[1]); topics = sys.argv[2:]
+    rospy.init_node("bench_subscriber", anonymous=True, disable_signals=True)
+    lock = threading.Lock(); counts = dict.fromkeys(topics, 0); times = []
+    def make(topic):
+        def cb(_):
+            with lock:
+                counts[topic] += 1
+                times.append(time.perf_counter())
+        return cb
+    subs = [rospy.Subscriber(t, rospy.AnyMsg, make(t), queue_size=None, tcp_nodelay=True)
+            for t in topics]
+    start = rospy.Publisher("/startSimulation", Bool, queue_size=1, latch=True)
+    end = time.monotonic() + 60
+    while (min(s.get_num_connections() for s in subs) < 1 or start.get_num_connections() < 1):
+        if time.monotonic() > end:
+            sys.exit("the node did not connect")
+        time.sleep(0.01)
+    start.publish(Bool(True))
+    done_topic = [t for t in topics if t.endswith("simulationStepDone")][0]
+    last = time.monotonic() + 120
+    while counts[done_topic] < steps and time.monotonic() < last:
+        time.sleep(0.05)
+    time.sleep(1.0)  # stragglers on other connections
+    with lock:
+        print(json.dumps({"counts": counts, "first": times[0], "last": times[-1]}), flush=True)
+    """
+)
+TOPICS = [
+    "/scan", "/proximity", "/sensorTrigger", "/odom", "/tf", "/clock", "/simulationTime",
+    "/reward", "/terminated", "/truncated", "/bubblerob/action", "/simulationStepDone",
+]  # fmt: skip
+CAMERA_TOPICS = ["/camera/image_raw", "/camera/camera_info"]
+
+
+def free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return int(sock.getsockname()[1])
+
+
+def env_alone(camera: bool, steps: int) -> float:
+    """Steps/s of the env without ROS, with the node's sort of actions."""
+    env = gym.make("BubbleRob-v0", camera=camera)
+    env.reset(seed=0)
+    action = np.array([0.8, 0.8], dtype=np.float32)
+    start = time.perf_counter()
+    for _ in range(steps):
+        _, _, terminated, truncated, _ = env.step(action)
+        if terminated or truncated:
+            env.reset()
+    rate = steps / (time.perf_counter() - start)
+    env.close()
+    return rate
+
+
+def run_node(camera: bool, steps: int, ros_env: dict[str, str], home: Path) -> dict[str, float]:
+    """One node run with a subscriber; its rates."""
+    topics = TOPICS + (CAMERA_TOPICS if camera else [])
+    debian = {"PATH": "/usr/bin:/bin", "HOME": str(home), **ros_env}
+    subscriber = subprocess.Popen(
+        ["/usr/bin/python3", "-c", SUBSCRIBER, str(steps), *topics],
+        env=debian,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    args = ["--rate-factor", "max", "--start", "stopped", "--steps", str(steps), "--watchdog", "0"]
+    args += ["--camera"] if camera else []
+    node = subprocess.run(
+        [sys.executable, "-m", "bubblerob_env.cli", "node", *args],
+        env={**os.environ, **ros_env},
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=True,
+    )
+    out, _ = subscriber.communicate(timeout=150)
+    report = json.loads(out.strip().splitlines()[-1])
+    match = re.search(r"(\d+) steps in ([\d.]+) s .* (\d+) messages published", node.stdout)
+    assert match, node.stdout + node.stderr
+    node_steps, node_wall, published = int(match[1]), float(match[2]), int(match[3])
+    received = sum(report["counts"].values())
+    span = report["last"] - report["first"]
+    return {
+        "steps_s": node_steps / node_wall,
+        "published_s": published / node_wall,
+        "received_s": received / span,
+        "received_pct": 100.0 * received / (published + node_steps),  # + stepDone (not in sink)
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=2000, help="steps per node run")
+    parser.add_argument("--quick", action="store_true", help="a smoke test: 100 steps")
+    args = parser.parse_args()
+    steps = 100 if args.quick else args.steps
+    port = free_port()
+    ros_env = {"ROS_MASTER_URI": f"http://127.0.0.1:{port}/", "ROS_HOSTNAME": "127.0.0.1"}
+    home = Path(os.environ.get("TMPDIR", "/tmp")) / f"bubblerob_live_bench_{port}"
+    ros_env["ROS_HOME"] = str(home)
+    master = subprocess.Popen(
+        ["/usr/bin/rosmaster", "--core", "-p", str(port)],
+        env={"PATH": "/usr/bin:/bin", "HOME": str(home), **ros_env},
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    rows = []
+    try:
+        check_master(ros_env["ROS_MASTER_URI"], timeout=15)
+        for camera in (False, True):
+            alone = env_alone(camera, steps)
+            rows.append((camera, alone, run_node(camera, steps, ros_env, home)))
+    finally:
+        master.terminate()
+        master.wait(10)
+    print(f"bubblerob node --rate-factor max, {steps} steps per run, ROS 1 (Debian rospy)")
+    header = ("camera", "env alone steps/s", "node steps/s", "published msg/s", "received msg/s",
+              "received")  # fmt: skip
+    print("| " + " | ".join(header) + " |")
+    print("|" + "|".join("---" for _ in header) + "|")
+    for camera, alone, r in rows:
+        print(
+            f"| {'64x64' if camera else 'off'} | {alone:.0f} | {r['steps_s']:.0f} | "
+            f"{r['published_s']:.0f} | {r['received_s']:.0f} | {r['received_pct']:.1f}% |"
+        )
+
+
+if __name__ == "__main__":
+    main()

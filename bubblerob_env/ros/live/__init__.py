@@ -1,0 +1,43 @@
+"""BubbleRob live on a ROS graph: the ``bubblerob node`` and the ``RosLivePublisher`` wrapper.
+
+- :mod:`~bubblerob_env.ros.live.backend`: what a ROS client library must offer; errors.
+- :mod:`~bubblerob_env.ros.live.ros1` (``rospy``), :mod:`~bubblerob_env.ros.live.ros2`
+  (``rclpy``, untested): the backends, publishing pre-serialised bytes.
+- :mod:`~bubblerob_env.ros.live.sink`: ``LiveSink``, the bag-sink interface on live topics.
+- :mod:`~bubblerob_env.ros.live.wrapper`: ``RosLivePublisher``, publishing any RL loop.
+- :mod:`~bubblerob_env.ros.live.controls`: wheel commands, watchdog, switches, sim control input.
+- :mod:`~bubblerob_env.ros.live.node`: ``SimNode``, the simulation loop of ``bubblerob node``.
+
+Nothing here imports ``rospy``/``rclpy`` until a backend is started.
+"""
+
+from __future__ import annotations
+
+from bubblerob_env.ros.live.backend import (
+    BackendError,
+    LiveBackend,
+    MasterUnreachableError,
+    RosUnavailableError,
+    load_backend,
+)
+from bubblerob_env.ros.live.controls import ControlState, ControlTopics
+from bubblerob_env.ros.live.node import PAUSED, RUNNING, STOPPED, NodeConfig, SimNode
+from bubblerob_env.ros.live.sink import LiveSink
+from bubblerob_env.ros.live.wrapper import RosLivePublisher
+
+__all__ = [
+    "PAUSED",
+    "RUNNING",
+    "STOPPED",
+    "BackendError",
+    "ControlState",
+    "ControlTopics",
+    "LiveBackend",
+    "LiveSink",
+    "MasterUnreachableError",
+    "NodeConfig",
+    "RosLivePublisher",
+    "RosUnavailableError",
+    "SimNode",
+    "load_backend",
+]

@@ -1,0 +1,199 @@
+"""``bubblerob node``: BubbleRob as a live ROS node (see :mod:`~bubblerob_env.ros.live.node`)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import signal
+import sys
+from pathlib import Path
+from typing import Any
+
+__all__ = ["LAUNCH_DIR", "add_node_subcommand", "parse_rate"]
+
+LAUNCH_DIR = Path(__file__).resolve().parent.parent / "launch"
+"""``bubblerob.launch``, ``bubblerob.rviz`` and ``package.xml`` (a ROS 1 package, ``bubblerob``)."""
+
+
+def parse_rate(text: str) -> float:
+    """``--rate-factor``: a number >= 0, or ``max`` (as fast as possible, same as 0)."""
+    if text.strip().lower() == "max":
+        return 0.0
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number >= 0 or 'max', got {text!r}") from None
+    if not value >= 0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a number >= 0 or 'max', got {text!r}")
+    return value
+
+
+def _env_arg(text: str) -> tuple[str, Any]:
+    key, sep, value = text.partition("=")
+    if not sep or not key:
+        raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {text!r}")
+    try:
+        return key, json.loads(value)
+    except json.JSONDecodeError:
+        return key, value  # a plain string, e.g. a path
+
+
+def _size(text: str) -> tuple[int, int]:
+    width, sep, height = text.lower().partition("x")
+    if not sep or not width.isdigit() or not height.isdigit():
+        raise argparse.ArgumentTypeError(f"expected WIDTHxHEIGHT such as 64x64, got {text!r}")
+    return int(width), int(height)
+
+
+def add_node_subcommand(subparsers: Any) -> None:
+    """Add ``node`` to the ``bubblerob`` command."""
+    from bubblerob_env.ros.topics import PRESETS
+
+    node = subparsers.add_parser(
+        "node",
+        help="run BubbleRob as a live ROS node (sensors out, cmd_vel and sim control in)",
+        description="Run BubbleRob-v0 as a ROS node: publishes the recorder's topics live with "
+        "/clock, takes /cmd_vel or /leftMotorSpeed + /rightMotorSpeed, the sensor switches and "
+        "CoppeliaSim's simulation-control topics (start/pause/stop, sync mode, triggerNextStep).",
+    )
+    node.add_argument(
+        "--ros",
+        type=int,
+        choices=(1, 2),
+        default=1,
+        help="ROS 1 (rospy, default) or ROS 2 (rclpy, untested)",
+    )
+    mode = node.add_mutually_exclusive_group()
+    mode.add_argument(
+        "--rate-factor",
+        type=parse_rate,
+        default=1.0,
+        metavar="X",
+        help="simulated/real time in free mode: 1 (default), 0 or max: flat out",
+    )
+    mode.add_argument("--sync", action="store_true", help="start in sync mode (triggerNextStep)")
+    node.add_argument(
+        "--namespace",
+        default=os.environ.get("ROS_NAMESPACE", ""),
+        help="prefix for this robot's topics (default: $ROS_NAMESPACE)",
+    )
+    node.add_argument("--topics", choices=sorted(PRESETS), default="default", help="topic names")
+    node.add_argument("--camera", action="store_true", help="publish the camera (64x64)")
+    node.add_argument(
+        "--camera-size",
+        type=_size,
+        default=None,
+        metavar="WxH",
+        help="camera size, e.g. 128x96 (turns the camera on)",
+    )
+    node.add_argument("--seed", type=int, default=0, help="seed of the first episode (k: seed+k)")
+    node.add_argument(
+        "--watchdog",
+        type=float,
+        default=0.5,
+        help="stop the wheels after this many sim seconds without a command; 0: off",
+    )
+    node.add_argument(
+        "--start",
+        choices=("running", "paused", "stopped"),
+        default="running",
+        help="initial simulation state",
+    )
+    node.add_argument("--max-steps", type=int, default=None, help="step limit per episode")
+    node.add_argument("--no-clock", action="store_true", help="do not publish /clock")
+    node.add_argument(
+        "--env",
+        type=_env_arg,
+        action="append",
+        default=[],
+        metavar="KEY=JSON",
+        help="BubbleRob-v0 keyword argument, e.g. num_obstacles=[0,0]",
+    )
+    node.add_argument("--steps", type=int, default=None, help="exit after this many steps")
+    node.add_argument("--duration", type=float, default=None, help="exit after this many seconds")
+    node.add_argument(
+        "--master-timeout",
+        type=float,
+        default=3.0,
+        help="seconds to wait for the ROS master (ROS 1)",
+    )
+    node.add_argument(
+        "--launch-dir",
+        action="store_true",
+        help="print the directory holding bubblerob.launch and bubblerob.rviz (a ROS package "
+        "named bubblerob, for ROS_PACKAGE_PATH) and exit",
+    )
+    node.set_defaults(handler=_node)
+
+
+def _node(args: argparse.Namespace) -> int:
+    if args.launch_dir:
+        print(LAUNCH_DIR)
+        return 0
+    import gymnasium as gym
+
+    import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
+    from bubblerob_env.ros.live.backend import BackendError, load_backend
+    from bubblerob_env.ros.live.node import NodeConfig, SimNode
+    from bubblerob_env.ros.topics import topics_preset
+
+    def fail(text: str) -> int:
+        print(f"bubblerob node: {text}", file=sys.stderr)
+        return 2
+
+    kwargs: dict[str, Any] = dict(args.env)
+    if kwargs.get("action_type", "wheels") != "wheels":
+        return fail("the node drives the wheels: action_type must be 'wheels' (cmd_vel is mapped)")
+    kwargs["action_type"] = "wheels"
+    if args.camera:
+        kwargs["camera"] = True
+    if args.camera_size is not None:
+        kwargs["camera_width"], kwargs["camera_height"] = args.camera_size
+    if args.max_steps is not None:
+        kwargs["max_episode_steps"] = args.max_steps
+    try:
+        topics = topics_preset(args.topics, args.namespace)
+        if args.no_clock:
+            topics = topics.replace(clock=None)
+        config = NodeConfig(
+            rate_factor=args.rate_factor,
+            sync=args.sync,
+            watchdog=args.watchdog,
+            seed=args.seed,
+            start=args.start,
+        )
+        env = gym.make("BubbleRob-v0", **kwargs)
+    except (TypeError, ValueError) as error:
+        return fail(str(error))
+    try:
+        backend = load_backend(
+            args.ros, namespace=args.namespace, master_timeout=args.master_timeout
+        )
+    except BackendError as error:
+        env.close()
+        return fail(str(error))
+    node = SimNode(env, backend, topics, config=config)
+    previous = signal.signal(signal.SIGTERM, lambda *_: node.request_stop())
+    print(
+        f"bubblerob node: ROS {args.ros}, {len(node.publisher.sink.topics)} topics, "
+        f"{'sync mode' if args.sync else f'rate factor {args.rate_factor:g}'}; ready",
+        flush=True,
+    )
+    try:
+        node.run(max_steps=args.steps, duration=args.duration)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+        node.close()
+        backend.shutdown("exiting")
+    first, last = node.first_step_at, node.last_step_at
+    wall = (last - first) if first is not None and last is not None else 0.0
+    rate = f"{node.steps / wall:.1f}" if wall > 0 else "-"
+    print(
+        f"bubblerob node: {node.steps} steps in {wall:.2f} s ({rate} steps/s), "
+        f"{node.publisher.sink.published} messages published",
+        flush=True,
+    )
+    return 0

@@ -1,0 +1,283 @@
+"""``SimNode``: BubbleRob as a ROS node, with the seeds' topics and the CoppeliaSim control surface.
+
+Every frame goes out through :class:`~bubblerob_env.ros.live.wrapper.RosLivePublisher` (the
+conversion layer's topics plus ``/clock``), except the wheel-command topics, which are the node's
+inputs (:mod:`~bubblerob_env.ros.live.controls`); the applied action is on ``/bubblerob/action``.
+Simulation control follows CoppeliaSim's ROS helper: ``startSimulation``, ``pauseSimulation``,
+``stopSimulation``, ``enableSyncMode`` and ``triggerNextStep`` in, ``simulationStepDone`` (after
+every step) and ``simulationState`` (latched; 0 stopped, 1 running, 2 paused) out. In sync mode
+the simulation advances one control step per ``triggerNextStep`` and never on its own; otherwise
+it runs at ``rate_factor`` times real time (0: as fast as possible). When an episode ends
+(collision or time limit) the next one starts at once, published like the first.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium as gym
+
+from bubblerob_env.ros.distros import typestore
+from bubblerob_env.ros.live.backend import LiveBackend
+from bubblerob_env.ros.live.controls import (
+    CONTROL_TYPES,
+    ControlError,
+    ControlState,
+    ControlTopics,
+    decode_control,
+)
+from bubblerob_env.ros.live.wrapper import RosLivePublisher
+from bubblerob_env.ros.topics import Topics
+
+__all__ = ["STOPPED", "RUNNING", "PAUSED", "NodeConfig", "SimNode"]
+
+STOPPED, RUNNING, PAUSED = 0, 1, 2
+"""Values of ``simulationState`` (``std_msgs/Int32``), as CoppeliaSim publishes them."""
+COMMAND_KEYS = ("cmd_vel", "left_motor_speed", "right_motor_speed")
+
+
+@dataclass(frozen=True)
+class NodeConfig:
+    """How the node runs.
+
+    Attributes:
+        rate_factor: Simulated seconds per wall-clock second in free mode; 0: as fast as possible.
+        sync: Start in synchronous mode (step only on ``triggerNextStep``).
+        watchdog: Simulated seconds without a wheel command before the wheels stop; 0: never.
+        seed: Seed of the first episode; episode ``k`` is reset with ``seed + k`` (as
+            ``bubblerob record``); ``None``: unseeded.
+        start: Initial state: ``"running"``, ``"paused"`` or ``"stopped"``.
+    """
+
+    rate_factor: float = 1.0
+    sync: bool = False
+    watchdog: float = 0.5
+    seed: int | None = 0
+    start: str = "running"
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.rate_factor) and self.rate_factor >= 0):
+            raise ValueError(
+                f"rate_factor must be >= 0 (0: as fast as possible), got {self.rate_factor}"
+            )
+        if not (math.isfinite(self.watchdog) and self.watchdog >= 0):
+            raise ValueError(f"watchdog must be >= 0 seconds (0: off), got {self.watchdog}")
+        if self.start not in ("running", "paused", "stopped"):
+            raise ValueError(f"start must be running, paused or stopped, got {self.start!r}")
+
+
+class SimNode:
+    """Runs a ``BubbleRob-v0`` env (``action_type="wheels"``) as a ROS node; see the module doc."""
+
+    def __init__(
+        self,
+        env: gym.Env[Any, Any],
+        backend: LiveBackend,
+        topics: Topics | None = None,
+        controls: ControlTopics | None = None,
+        config: NodeConfig | None = None,
+    ) -> None:
+        """Advertise every output and subscribe every input (nothing is stepped yet).
+
+        Raises:
+            ValueError: The env is not in ``"wheels"`` mode.
+        """
+        base = env.unwrapped
+        if getattr(base, "action_type", None) != "wheels":
+            raise ValueError("the node drives the env's wheels: make it with action_type='wheels'")
+        self.config = config or NodeConfig()
+        self.backend = backend
+        topics = topics or Topics()
+        names = topics.resolved()
+        self.command_names = {k: names[k] for k in COMMAND_KEYS if k in names}
+        live_topics = topics.replace(**dict.fromkeys(COMMAND_KEYS))
+        self.publisher = RosLivePublisher(env, backend, topics=live_topics)
+        self.names = (controls or ControlTopics()).resolved(topics.namespace)
+        resolved = live_topics.resolved()
+        self._sensor_topics = {
+            "laser": [resolved[k] for k in ("scan",) if k in resolved],
+            "camera": [resolved[k] for k in ("image", "camera_info") if k in resolved],
+        }
+        self.state = ControlState(base.drive, self.config.watchdog)  # type: ignore[attr-defined]
+        self.sync = self.config.sync
+        self.sim_state = {"running": RUNNING, "paused": PAUSED, "stopped": STOPPED}[
+            self.config.start
+        ]
+        self.steps = 0
+        self._pending = 0
+        self._stop_requested = False
+        self.first_step_at: float | None = None
+        """``time.perf_counter()`` when the first step began, and when the latest ended."""
+        self.last_step_at: float | None = None
+        self._encoding = "ros1" if backend.ros_version == 1 else "cdr"
+        self._bool = {v: self._serialize("std_msgs/msg/Bool", data=v) for v in (False, True)}
+        self._step_done = backend.advertise(self.names["step_done"], "std_msgs/msg/Bool")
+        self._state_out = backend.advertise(self.names["state"], "std_msgs/msg/Int32", True)
+        self._subscribe_all()
+
+    # -- wiring ---------------------------------------------------------------------------------
+
+    def _serialize(self, msgtype: str, **fields: Any) -> bytes:
+        store = typestore(self.backend.distro)
+        message = store.types[msgtype](**fields)
+        if self._encoding == "ros1":
+            return bytes(store.serialize_ros1(message, msgtype))
+        return bytes(store.serialize_cdr(message, msgtype, little_endian=True))
+
+    def _subscribe_all(self) -> None:
+        s = self.state
+        handlers: list[tuple[str, str, Callable[[Any], None]]] = []
+        if "cmd_vel" in self.command_names:
+            handlers.append(
+                (self.command_names["cmd_vel"], "twist", _call(s.command_twist, star=True))
+            )
+        for side, key in enumerate(("left_motor_speed", "right_motor_speed")):
+            if key in self.command_names:
+                handlers.append((self.command_names[key], "float32", _call(s.command_wheel, side)))
+        for sensor in ("laser", "camera"):
+            handlers.append((self.names[f"{sensor}_switch"], "bool", _call(s.set_switch, sensor)))
+        for event in ("start", "pause", "stop", "enable_sync", "trigger"):
+            handlers.append((self.names[event], "bool", _call(s.push, event)))
+        for topic, kind, handle in handlers:
+            self.backend.subscribe(topic, CONTROL_TYPES[kind], self._checked(topic, kind, handle))
+
+    def _checked(
+        self, topic: str, kind: str, handle: Callable[[Any], None]
+    ) -> Callable[[bytes, str | None, str], None]:
+        expected = CONTROL_TYPES[kind].replace("/msg/", "/")
+
+        def callback(raw: bytes, msgtype: str | None, sender: str) -> None:
+            if msgtype not in (None, "*", expected):
+                self._reject(topic, "wrong type", f"{msgtype} from {sender}, expected {expected}")
+                return
+            try:
+                value = decode_control(kind, raw, self._encoding)
+            except ControlError as error:
+                self._reject(topic, "malformed", f"{error} (from {sender})")
+                return
+            handle(value)
+
+        return callback
+
+    def _reject(self, topic: str, reason: str, detail: str) -> None:
+        if self.state.should_warn(topic, reason):
+            self.backend.log("warn", f"ignoring a {reason} message on {topic}: {detail}")
+
+    # -- simulation -----------------------------------------------------------------------------
+
+    @property
+    def sim_time(self) -> float:
+        """Simulated seconds since the first reset (the ``/clock`` time)."""
+        stamp = self.publisher.stamp_ns
+        return 0.0 if stamp is None else stamp * 1e-9
+
+    def _publish_state(self) -> None:
+        self._state_out(self._serialize("std_msgs/msg/Int32", data=self.sim_state))
+
+    def _new_episode(self) -> None:
+        seed = self.config.seed
+        episode = self.publisher.episode
+        self.publisher.reset(seed=None if seed is None else seed + episode)
+        self.state.set_time(self.sim_time)
+
+    def _handle(self, event: str, value: bool) -> None:
+        before = self.sim_state
+        if event == "start":
+            if self.sim_state == STOPPED:
+                self._new_episode()
+            self.sim_state = RUNNING
+        elif event == "pause":
+            if self.sim_state == RUNNING:
+                self.sim_state = PAUSED
+        elif event == "stop":
+            self.sim_state = STOPPED
+            self._pending = 0
+            self.state.stop_wheels()
+        elif event == "enable_sync":
+            self.sync = value
+            self._pending = 0
+        elif event == "trigger":
+            if self.sync and self.sim_state == RUNNING:
+                self._pending += 1
+            elif self.state.should_warn(self.names["trigger"], "ignored"):
+                why = "not in sync mode" if not self.sync else "the simulation is not running"
+                self.backend.log("warn", f"ignoring triggerNextStep: {why}")
+        if self.sim_state != before:
+            self._publish_state()
+
+    def _apply_switches(self) -> None:
+        sink = self.publisher.sink
+        sink.mute(self._sensor_topics["laser"], not self.state.laser_on)
+        sink.mute(self._sensor_topics["camera"], not self.state.camera_on)
+
+    def step_once(self) -> tuple[bool, bool]:
+        """One control step with the current command; returns ``(terminated, truncated)``."""
+        if self.first_step_at is None:
+            self.first_step_at = time.perf_counter()
+        action = self.state.action(self.sim_time)
+        _, _, terminated, truncated, _ = self.publisher.step(action)
+        self.steps += 1
+        if terminated or truncated:
+            self._new_episode()
+        self.state.set_time(self.sim_time)
+        self._step_done(self._bool[True])
+        self.last_step_at = time.perf_counter()
+        return terminated, truncated
+
+    def run(self, max_steps: int | None = None, duration: float | None = None) -> int:
+        """Run until shut down, ``max_steps`` steps, or ``duration`` wall seconds; steps taken."""
+        self._publish_state()
+        if self.sim_state != STOPPED:
+            self._new_episode()
+        rate = self.config.rate_factor
+        period = self.publisher.dt_ns * 1e-9 / rate if rate > 0 else 0.0
+        end = math.inf if duration is None else time.monotonic() + duration
+        deadline: float | None = None
+        start_steps = self.steps
+        self._stop_requested = False
+        while self.backend.ok() and not self._stop_requested and time.monotonic() < end:
+            if max_steps is not None and self.steps - start_steps >= max_steps:
+                break
+            for event, value in self.state.drain():
+                self._handle(event, value)
+            self._apply_switches()
+            if self.sim_state != RUNNING or (self.sync and self._pending <= 0):
+                deadline = None
+                self.state.wait(min(0.05, max(0.0, end - time.monotonic())))
+                continue
+            if not self.sync and period > 0:
+                now = time.monotonic()
+                if deadline is None:
+                    deadline = now
+                if now < deadline:
+                    self.state.wait(min(deadline - now, 0.1))
+                    continue
+                deadline = max(deadline + period, now - period)  # late: catch up one step at most
+            if self.sync:
+                self._pending -= 1
+            self.step_once()
+        return self.steps - start_steps
+
+    def request_stop(self) -> None:
+        """Make :meth:`run` return soon; safe from a signal handler (it only sets a flag)."""
+        self._stop_requested = True
+
+    def close(self) -> None:
+        """Stop publishing and close the env (the backend is the caller's)."""
+        self.publisher.close()
+
+
+def _call(function: Callable[..., None], *first: Any, star: bool = False) -> Callable[[Any], None]:
+    """``value -> function(*first, value)`` (or ``function(*first, *value)`` with ``star``)."""
+
+    def handle(value: Any) -> None:
+        if star:
+            function(*first, *value)
+        else:
+            function(*first, value)
+
+    return handle

@@ -1,0 +1,63 @@
+"""``LiveSink``: the bag-sink interface, publishing to a live ROS graph instead of a file.
+
+:class:`~bubblerob_env.ros.serialize.MessageFanout` serialises each message once per distro and
+hands the same bytes to every sink of that distro: a bag, this sink, or both at once.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+
+from bubblerob_env.ros.live.backend import LiveBackend, Publish
+from bubblerob_env.ros.sinks import BagSink
+from bubblerob_env.ros.writers import Record
+
+__all__ = ["LiveSink"]
+
+
+class LiveSink(BagSink):
+    """Publishes every record on its topic through ``backend``; muted topics are skipped."""
+
+    def __init__(self, backend: LiveBackend) -> None:
+        """Publish through ``backend`` (its distro decides which serializer feeds this sink)."""
+        super().__init__(Path(f"ros{backend.ros_version}-live"), "live", backend.distro)
+        self.backend = backend
+        self._publish: dict[str, Publish] = {}
+        self._types: dict[str, str] = {}
+        self.muted: set[str] = set()
+        self.published = 0
+
+    def add_topic(self, topic: str, msgtype: str, latched: bool = False) -> None:
+        """Advertise ``topic`` (latched topics reach late subscribers too)."""
+        if topic not in self._publish:
+            self._publish[topic] = self.backend.advertise(topic, msgtype, latched)
+            self._types[topic] = msgtype
+
+    def write_batch(self, records: Sequence[Record]) -> None:
+        """Publish each record now (its stamp is already in the message where it has one)."""
+        muted = self.muted
+        for topic, _, data in records:
+            if topic not in muted:
+                self._publish[topic](data)
+                self.published += 1
+
+    def mute(self, topics: Iterable[str], muted: bool = True) -> None:
+        """Stop (``muted``) or resume publishing ``topics``."""
+        if muted:
+            self.muted.update(topics)
+        else:
+            self.muted.difference_update(topics)
+
+    def close(self) -> None:
+        """Stop publishing (the backend's node is left running)."""
+        self.closed = True
+
+    @property
+    def topics(self) -> tuple[str, ...]:
+        """Topics advertised so far."""
+        return tuple(self._publish)
+
+    def msgtype(self, topic: str) -> str:
+        """Message type of an advertised topic."""
+        return self._types[topic]

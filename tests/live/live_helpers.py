@@ -1,0 +1,143 @@
+"""Helpers for the live-node tests (imported as a plain module: tests/live is on sys.path).
+
+Everything runs as subprocesses with ``ROS_MASTER_URI``/``ROS_HOSTNAME`` set to that master; each
+fixture stops what it started, also when a test fails. Tests are skipped (naming the Debian
+packages) only where Debian's ROS 1 tools are missing.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+HERE = Path(__file__).resolve().parent
+CLIENT = HERE / "ros_client.py"
+DEBIAN_PACKAGES = (
+    "python3-rospy python3-rosmaster python3-rostopic python3-rosbag python3-roslaunch "
+    "python3-std-msgs python3-geometry-msgs python3-sensor-msgs python3-nav-msgs "
+    "python3-tf2-msgs python3-rosgraph-msgs"
+)
+
+
+def missing_ros_tools() -> str | None:
+    """Why the live tests cannot run here, or ``None``."""
+    for tool in ("rosmaster", "rostopic", "rosbag", "roslaunch"):
+        if not Path("/usr/bin", tool).exists():
+            return f"/usr/bin/{tool} is missing: apt-get install {DEBIAN_PACKAGES}"
+    probe = subprocess.run(
+        ["/usr/bin/python3", "-c", "import rospy, std_msgs.msg, geometry_msgs.msg, nav_msgs.msg"],
+        env={"PATH": "/usr/bin:/bin", "HOME": "/tmp"},
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    if probe.returncode != 0:
+        return f"Debian's rospy is not importable: apt-get install {DEBIAN_PACKAGES}"
+    return None
+
+
+SKIP_REASON = missing_ros_tools()
+requires_ros = pytest.mark.skipif(SKIP_REASON is not None, reason=SKIP_REASON or "")
+"""Module mark: skip where Debian's ROS 1 tools are missing."""
+
+
+def free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return int(sock.getsockname()[1])
+
+
+def stop(proc: subprocess.Popen[Any], sig: int = signal.SIGINT, timeout: float = 10.0) -> None:
+    """Stop a process we started: ``sig``, then SIGKILL after ``timeout``."""
+    if proc.poll() is None:
+        proc.send_signal(sig)
+        try:
+            proc.wait(timeout)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(5)
+
+
+class Master:
+    """A running ``rosmaster`` and the environments that reach it."""
+
+    def __init__(self, port: int, home: Path) -> None:
+        self.uri = f"http://127.0.0.1:{port}/"
+        ros = {"ROS_MASTER_URI": self.uri, "ROS_HOSTNAME": "127.0.0.1", "ROS_HOME": str(home)}
+        self.debian_env = {"PATH": "/usr/bin:/bin", "HOME": str(home), "LANG": "C.UTF-8", **ros}
+        self.venv_env = {**os.environ, **ros, "PYTHONUNBUFFERED": "1"}
+        self.venv_env.pop("ROS_NAMESPACE", None)
+
+    def run(self, args: list[str], timeout: float = 30.0) -> subprocess.CompletedProcess[str]:
+        """Run a Debian ROS tool (``rostopic ...``) to completion."""
+        return subprocess.run(
+            args, env=self.debian_env, capture_output=True, text=True, timeout=timeout, check=False
+        )
+
+    def client(self, *args: str, timeout: float = 30.0) -> Any:
+        """Run a ``ros_client.py`` subcommand; its JSON result."""
+        result = self.run(["/usr/bin/python3", str(CLIENT), *args], timeout=timeout)
+        assert result.returncode == 0, f"client {args} failed:\n{result.stdout}\n{result.stderr}"
+        return json.loads(result.stdout.strip().splitlines()[-1])
+
+    def popen(self, args: list[str], **kwargs: Any) -> subprocess.Popen[str]:
+        """Start a Debian ROS tool in the background."""
+        return subprocess.Popen(args, env=self.debian_env, text=True, **kwargs)
+
+
+class Node:
+    """A ``bubblerob node`` subprocess; stdout/stderr collected by threads."""
+
+    def __init__(self, master: Master, args: list[str], ready_timeout: float = 60.0) -> None:
+        self.args = args
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "bubblerob_env.cli", "node", *args],
+            env=master.venv_env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        self.out: list[str] = []
+        self.err: list[str] = []
+        self._ready = threading.Event()
+        threading.Thread(target=self._read, args=(self.proc.stdout, self.out), daemon=True).start()
+        threading.Thread(target=self._read, args=(self.proc.stderr, self.err), daemon=True).start()
+        if not self._ready.wait(ready_timeout) or self.proc.poll() is not None:
+            self.stop()
+            raise AssertionError(f"node {args} did not start:\n{self.output}")
+
+    def _read(self, stream: Any, into: list[str]) -> None:
+        for line in stream:
+            into.append(line)
+            if "ready" in line:
+                self._ready.set()
+
+    @property
+    def output(self) -> str:
+        return "".join(self.out) + "".join(self.err)
+
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def stop(self) -> int:
+        stop(self.proc, signal.SIGTERM)
+        return int(self.proc.returncode)
+
+
+def wait_for(predicate: Any, timeout: float, interval: float = 0.05) -> bool:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if predicate():
+            return True
+        time.sleep(interval)
+    return bool(predicate())

@@ -1,0 +1,301 @@
+"""External ROS 1 nodes for the live tests: run with Debian's /usr/bin/python3 (real rospy).
+
+Each subcommand prints one JSON line on stdout. ``seedloop`` is the seeds' ``rosBubbleRob2``:
+forward; for a while after ``sensorTrigger``, back up while turning.
+"""
+
+import argparse
+import json
+import sys
+import threading
+import time
+
+import rospy
+from geometry_msgs.msg import Twist
+from nav_msgs.msg import Odometry
+from rosgraph_msgs.msg import Clock
+from std_msgs.msg import Bool, Float32, Int32, String
+
+
+class Counter:
+    """Messages of one topic: count, latest, all (optional)."""
+
+    def __init__(self, topic, cls, keep=False):
+        self.cond = threading.Condition()
+        self.count = 0
+        self.latest = None
+        self.all = [] if keep else None
+        self.sub = rospy.Subscriber(topic, cls, self._cb, tcp_nodelay=True, queue_size=None)
+
+    def _cb(self, msg):
+        with self.cond:
+            self.count += 1
+            self.latest = msg
+            if self.all is not None:
+                self.all.append(msg)
+            self.cond.notify_all()
+
+    def wait(self, count, timeout=5.0):
+        end = time.monotonic() + timeout
+        with self.cond:
+            while self.count < count:
+                left = end - time.monotonic()
+                if left <= 0:
+                    raise SystemExit(
+                        f"timeout waiting for message {count} on {self.sub.name}"
+                        f" (have {self.count})"
+                    )
+                self.cond.wait(left)
+            return self.latest
+
+
+def publisher(topic, cls, latch=False, subscribers=1, timeout=5.0):
+    pub = rospy.Publisher(topic, cls, queue_size=100, latch=latch, tcp_nodelay=True)
+    end = time.monotonic() + timeout
+    while pub.get_num_connections() < subscribers:
+        if time.monotonic() > end:
+            raise SystemExit(f"nobody subscribed to {topic}")
+        time.sleep(0.01)
+    return pub
+
+
+def ns(args, name):
+    return (args.ns.rstrip("/") + "/" + name) if args.ns else "/" + name
+
+
+def wait_connected(sub, timeout=5.0):
+    """Until ``sub`` is connected to every publisher the master lists for its topic."""
+    master = rospy.get_master()
+    end = time.monotonic() + timeout
+    while True:
+        _, _, (published, _, _) = master.getSystemState()
+        wanted = sum(len(nodes) for topic, nodes in published if topic == sub.resolved_name)
+        if wanted and sub.get_num_connections() >= wanted:
+            return
+        if time.monotonic() > end:
+            raise SystemExit(f"not connected to every publisher of {sub.name}")
+        time.sleep(0.01)
+
+
+def cmd_odom(args):
+    return odom_dict(rospy.wait_for_message(ns(args, "odom"), Odometry, timeout=10))
+
+
+def odom_dict(msg):
+    p, q, t = msg.pose.pose.position, msg.pose.pose.orientation, msg.twist.twist
+    import math
+
+    yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+    return {
+        "x": p.x,
+        "y": p.y,
+        "yaw": yaw,
+        "vx": t.linear.x,
+        "wz": t.angular.z,
+        "stamp": msg.header.stamp.to_nsec(),
+    }
+
+
+def cmd_count(args):
+    """How many messages each topic gets in ``--seconds``."""
+    counts = dict.fromkeys(args.topics, 0)
+
+    def make(topic):
+        return lambda _: counts.__setitem__(topic, counts[topic] + 1)
+
+    subs = {t: rospy.Subscriber(t, rospy.AnyMsg, make(t)) for t in args.topics}
+    time.sleep(args.seconds)
+    for s in subs.values():
+        s.unregister()
+    return counts
+
+
+def cmd_pub(args):
+    kinds = {
+        "bool": (Bool, lambda v: Bool(v == "true")),
+        "float32": (Float32, lambda v: Float32(float(v))),
+        "string": (String, lambda v: String(v)),
+        "twist": (Twist, lambda v: twist(*map(float, v.split(",")))),
+    }
+    if args.kind == "badtwist":  # 8 bytes, declared as a Twist (48 bytes)
+        cls = type(
+            "BadTwist",
+            (rospy.AnyMsg,),
+            {
+                "_type": Twist._type,
+                "_md5sum": Twist._md5sum,
+                "_full_text": Twist._full_text,
+                "__slots__": (),
+            },
+        )
+        msg = cls()
+        msg._buff = b"\x00" * 8
+    else:
+        cls, make = kinds[args.kind]
+        msg = make(args.value)
+    pub = publisher(args.topic, cls, latch=True)
+    pub.publish(msg)
+    time.sleep(args.linger)
+    return {"published": args.topic}
+
+
+def twist(v, w):
+    msg = Twist()
+    msg.linear.x, msg.angular.z = v, w
+    return msg
+
+
+def cmd_drive(args):
+    """Publish a twist on cmd_vel at 20 Hz for ``--seconds``; odometry then and ``--idle`` later."""
+    odom = Counter(ns(args, "odom"), Odometry)
+    pub = publisher(ns(args, "cmd_vel"), Twist)
+    end = time.monotonic() + args.seconds
+    rate = rospy.Rate(20)
+    while time.monotonic() < end:
+        pub.publish(twist(args.linear, args.angular))
+        rate.sleep()
+    result = {"moving": odom_dict(odom.wait(1))}
+    if args.idle:
+        time.sleep(args.idle)
+        result["idle"] = odom_dict(odom.latest)
+    return result
+
+
+def cmd_sync(args):
+    """Trigger one step, then ``n`` more; report /clock before and after."""
+    trigger = publisher(ns(args, "triggerNextStep"), Bool)
+    done = Counter(ns(args, "simulationStepDone"), Bool)
+    clock = Counter("/clock", Clock)
+    wait_connected(done.sub)
+    wait_connected(clock.sub)
+    trigger.publish(Bool(True))
+    done.wait(1)
+    t0 = clock.wait(1).clock.to_nsec()
+    c0 = clock.count
+    for _ in range(args.n):
+        trigger.publish(Bool(True))
+    done.wait(1 + args.n, timeout=20)
+    clock.wait(c0 + args.n)
+    t1 = clock.latest.clock.to_nsec()
+    time.sleep(args.settle)
+    return {"t0": t0, "t1": t1, "done": done.count - 1, "clocks": clock.count - c0}
+
+
+def cmd_states(args):
+    """pause, start, stop, start: the simulationState after each, and /clock while paused."""
+    state = Counter(ns(args, "simulationState"), Int32, keep=True)
+    clock = Counter("/clock", Clock)
+    pubs = {e: publisher(ns(args, f"{e}Simulation"), Bool) for e in ("start", "pause", "stop")}
+    state.wait(1)
+    seen = [state.latest.data]
+    paused_clocks = None
+    for event in ("pause", "start", "stop", "start"):
+        before = state.count
+        pubs[event].publish(Bool(True))
+        state.wait(before + 1)
+        seen.append(state.latest.data)
+        if event == "pause":
+            time.sleep(0.2)
+            c = clock.count
+            time.sleep(args.pause_seconds)
+            paused_clocks = clock.count - c
+    time.sleep(0.5)
+    return {"states": seen, "paused_clocks": paused_clocks, "clocks": clock.count}
+
+
+def wait_recorder(node, timeout=20.0):
+    """Until ``rosbag record`` is connected to every topic of ``node`` that it subscribes to."""
+    import xmlrpc.client
+
+    master = rospy.get_master()
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        _, _, (_, subscribed, _) = master.getSystemState()
+        wanted = {t for t, nodes in subscribed if any(n.startswith("/record") for n in nodes)}
+        _, _, uri = master.lookupNode(node)
+        _, _, bus = xmlrpc.client.ServerProxy(uri).getBusInfo(rospy.get_name())
+        connected = {c[4] for c in bus if c[2] == "o" and c[1].startswith("/record") and c[5]}
+        if wanted and wanted <= connected:
+            return
+        time.sleep(0.05)
+    raise SystemExit("rosbag record did not connect")
+
+
+def cmd_seedloop(args):
+    """rosBubbleRob2 in sync mode: forward; after sensorTrigger back up turning for a while."""
+    trig = Counter(ns(args, "sensorTrigger"), Bool)
+    done = Counter(ns(args, "simulationStepDone"), Bool)
+    term = Counter(ns(args, "terminated"), Bool, keep=True)
+    left = publisher(ns(args, "leftMotorSpeed"), Float32)
+    right = publisher(ns(args, "rightMotorSpeed"), Float32)
+    trigger = publisher(ns(args, "triggerNextStep"), Bool)
+    start = publisher(ns(args, "startSimulation"), Bool)
+    for c in (trig, done, term):
+        wait_connected(c.sub)
+    if args.wait_recorder:
+        wait_recorder(args.node)
+    start.publish(Bool(True))
+    trig.wait(1)
+    back_steps, command, triggers = 0, None, 0
+    for k in range(args.steps):
+        if trig.latest.data:
+            back_steps = args.back_steps
+            triggers += 1
+        if back_steps > 0:
+            wanted = (-args.speed / 2, -args.speed / 4)
+            back_steps -= 1
+        else:
+            wanted = (args.forward, args.forward)
+        left.publish(Float32(wanted[0]))  # every step, as the seed's node does (and the
+        right.publish(Float32(wanted[1]))  # node's watchdog wants)
+        if wanted != command:
+            command = wanted
+            time.sleep(0.005)  # commands and trigger travel on different connections
+        trigger.publish(Bool(True))
+        done.wait(k + 1)
+        trig.wait(k + 2)
+    time.sleep(args.settle)
+    return {"steps": done.count, "collisions": sum(m.data for m in term.all), "triggers": triggers}
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--ns", default="")
+    sub = parser.add_subparsers(dest="cmd", required=True)
+    sub.add_parser("odom")
+    p = sub.add_parser("count")
+    p.add_argument("topics", nargs="+")
+    p.add_argument("--seconds", type=float, default=1.0)
+    p = sub.add_parser("pub")
+    p.add_argument("topic")
+    p.add_argument("kind")
+    p.add_argument("value", nargs="?", default="")
+    p.add_argument("--linger", type=float, default=0.3)
+    p = sub.add_parser("drive")
+    p.add_argument("--linear", type=float, default=0.0)
+    p.add_argument("--angular", type=float, default=0.0)
+    p.add_argument("--seconds", type=float, default=1.0)
+    p.add_argument("--idle", type=float, default=0.0)
+    p = sub.add_parser("sync")
+    p.add_argument("--n", type=int, default=20)
+    p.add_argument("--settle", type=float, default=0.5)
+    p = sub.add_parser("states")
+    p.add_argument("--pause-seconds", type=float, default=0.5)
+    p = sub.add_parser("seedloop")
+    p.add_argument("--steps", type=int, default=600)
+    p.add_argument("--forward", type=float, default=8.0)
+    p.add_argument("--speed", type=float, default=10.0)
+    p.add_argument("--back-steps", type=int, default=30)
+    p.add_argument("--settle", type=float, default=1.0)
+    p.add_argument("--wait-recorder", action="store_true")
+    p.add_argument("--node", default="/bubblerob")
+    args = parser.parse_args()
+    rospy.init_node("live_test_client", anonymous=True, disable_signals=True)
+    result = globals()["cmd_" + args.cmd](args)
+    print(json.dumps(result), flush=True)
+    rospy.signal_shutdown("done")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
