@@ -168,7 +168,7 @@ def test_driving_into_a_wall_terminates_with_the_collision_penalty(wall_env_fact
         steps += 1
     assert terminated and not truncated
     assert info["collision"]
-    assert info["reward_collision"] == -10.0
+    assert info["reward_collision"] == -100.0
     assert reward < -9.0
     # Wheels and chassis reach about 0.1 m ahead of base_link: it stopped at the wall (x = 1.0).
     assert 0.85 < info["x"] < 0.95

@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
+import numpy as np
 import yaml
 
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
@@ -108,13 +109,27 @@ def train(
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
 
-    class SaveNormalization(BaseCallback):
-        """Saves the observation normalisation beside the new best model."""
+    class KeepBestModel(BaseCallback):
+        """After each evaluation, keeps the safest model: highest success rate, then return.
+
+        SB3's own ``best_model`` is the highest mean return; here a fast policy that crashes in
+        one evaluation episode out of ten would beat a safe one, so success comes first.
+        """
+
+        best: tuple[float, float] = (-float("inf"), -float("inf"))
 
         def _on_step(self) -> bool:
-            normalizer = self.model.get_vec_normalize_env()
-            if normalizer is not None:
-                normalizer.save(str(out / f"best_model{NORMALIZATION_SUFFIX}"))
+            evaluation = self.parent
+            assert isinstance(evaluation, EvalCallback)
+            successes = evaluation.evaluations_successes
+            score = (float(np.mean(successes[-1])) if successes else 0.0,
+                     float(evaluation.last_mean_reward))
+            if score > self.best:
+                self.best = score
+                self.model.save(out / "best_model")
+                normalizer = self.model.get_vec_normalize_env()
+                if normalizer is not None:
+                    normalizer.save(str(out / f"best_model{NORMALIZATION_SUFFIX}"))
             return True
 
     config = load_hyperparams(algo, env_id)
@@ -176,8 +191,7 @@ def train(
             eval_env,
             n_eval_episodes=eval_episodes,
             eval_freq=max(1, eval_freq // count),
-            best_model_save_path=str(out),
-            callback_on_new_best=SaveNormalization(),
+            callback_after_eval=KeepBestModel(),
             log_path=str(out),
             deterministic=True,
             verbose=0,
