@@ -3,12 +3,18 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 import pytest
+import yaml
 
 from policies import BUILTIN_POLICIES, load_policy
+from policies.evaluation import DEFAULT_EVAL_SEED, run_episode, summarize
+from train import load_hyperparams
+
+TRAINED_DIR = Path(__file__).resolve().parents[1] / "policies" / "trained"
 
 
 def _run_episodes(name: str, episodes: int, **env_kwargs) -> tuple[float, float]:
@@ -96,3 +102,22 @@ def test_laser_policy_needs_a_laser():
 def test_missing_model_file_is_named():
     with pytest.raises(ValueError, match=r"policy file nowhere/model\.zip does not exist"):
         load_policy("nowhere/model.zip")
+
+
+def test_shipped_ppo_avoids_obstacles_on_held_out_seeds():
+    env = gym.make("BubbleRob-v0")
+    policy = load_policy("ppo", env)
+    episodes = [run_episode(env, policy, seed=DEFAULT_EVAL_SEED + k) for k in range(5)]
+    result = summarize("ppo", episodes)
+    assert result.success_rate >= 0.8, result
+    assert result.mean_speed_fraction > 0.6, result  # it drives, not just sits safely
+
+
+def test_shipped_ppo_was_trained_with_the_repos_config():
+    # If ppo.yml changes, the shipped model no longer matches it: retrain and ship again.
+    shipped = yaml.safe_load((TRAINED_DIR / "config.yml").read_text())["BubbleRob-v0"]
+    seed = shipped.pop("seed")
+    assert shipped == load_hyperparams("ppo", "BubbleRob-v0")
+    command = (TRAINED_DIR / "command.txt").read_text().split()
+    assert command[:3] == ["python", "-m", "train"]
+    assert command[command.index("--seed") + 1] == str(seed)

@@ -99,3 +99,28 @@ def test_readme_demo_command(tmp_path):
     assert (tmp_path / "demo_output" / "bubblerob_demo_ppo").is_dir()
     assert (tmp_path / "demo_output" / "bubblerob_demo_ppo.mp4").stat().st_size > 10_000
     assert "success" in result.stdout
+
+
+def _markdown_rows(text: str) -> dict[str, list[float]]:
+    rows = {}
+    for line in text.splitlines():
+        cells = [cell.strip().rstrip("%") for cell in line.strip().strip("|").split("|")]
+        if len(cells) == 7 and cells[0] not in ("policy", "---"):
+            rows[cells[0]] = [float(cell) for cell in cells[1:]]
+    return rows
+
+
+def test_readme_policy_table_is_reproduced(tmp_path):
+    # The README's 100-episode table, re-measured: deterministic episodes, so only last-digit
+    # differences (torch's CPU kernels on another machine) are allowed.
+    section = README.split("## Policies\n", 1)[1].split("\n## ", 1)[0]
+    result = _run_section("Policies", tmp_path)
+    assert result.returncode == 0, result.stderr
+    expected, measured = _markdown_rows(section), _markdown_rows(result.stdout)
+    assert set(measured) == set(expected) == {"reactive", "laser", "ppo", "random"}
+    for policy, (episodes, success, collision, speed, length, ret) in expected.items():
+        m_episodes, m_success, m_collision, m_speed, m_length, m_ret = measured[policy]
+        assert m_episodes == episodes == 100
+        assert abs(m_success - success) <= 3 and abs(m_collision - collision) <= 3, policy
+        assert abs(m_speed - speed) <= 3 and abs(m_length - length) <= 0.03 * length, policy
+        assert abs(m_ret - ret) <= 0.05 * abs(ret) + 5, policy
