@@ -124,3 +124,19 @@ def test_readme_policy_table_is_reproduced(tmp_path):
         assert abs(m_success - success) <= 3 and abs(m_collision - collision) <= 3, policy
         assert abs(m_speed - speed) <= 3 and abs(m_length - length) <= 0.03 * length, policy
         assert abs(m_ret - ret) <= 0.05 * abs(ret) + 5, policy
+
+
+def test_readme_learning_curve_command_writes_the_picture(tmp_path):
+    out = tmp_path / "curve.png"
+    result = subprocess.run(
+        [sys.executable, "docs/plot_training.py", "policies/trained", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=ROOT,
+        check=False,
+    )
+    assert result.returncode == 0, result.stderr
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "python docs/plot_training.py" in README
+    assert (ROOT / "docs" / "images" / "ppo_learning_curve.png").is_file()
