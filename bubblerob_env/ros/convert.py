@@ -3,10 +3,11 @@
 Conversion happens in two stages, so that the recorder's fast path and anyone who wants message
 objects share one definition of every field:
 
-1. :meth:`RosConverter.frame_values` turns one env frame (the observation and info of a ``reset``
-   or ``step``, plus the action that led to it) into a flat dict of field values in ROS units and
-   conventions: REP 117 ``+inf``/``-inf`` ranges, quaternions in ROS order (x, y, z, w), the action
-   as a wheel speed command and a body twist.
+1. :meth:`RosConverter.frame_values` (or ``frame_args``, see :mod:`~bubblerob_env.ros.values`)
+   turns one env frame (the observation and info of a ``reset`` or ``step``, plus the action that
+   led to it) into flat field values in ROS units and conventions: REP 117 ``+inf``/``-inf``
+   ranges, quaternions in ROS order (x, y, z, w), the action as a wheel speed command and a body
+   twist.
 2. :meth:`RosConverter.message` builds the ``rosbags`` message of one topic key from such a dict.
    Given :class:`~bubblerob_env.ros.encode.Slot` placeholders instead of values (see
    :meth:`RosConverter.slots`), it builds the template that :mod:`~bubblerob_env.ros.encode`
@@ -20,19 +21,18 @@ Frames follow REP 103/105: ``odom -> base_link`` on ``/tf`` and in ``nav_msgs/Od
 from __future__ import annotations
 
 import json
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 from rosbags.typesys.store import Typestore
 
 from bubblerob_env.kinematics import DiffDrive
 from bubblerob_env.ros.distros import get_distro, typestore
 from bubblerob_env.ros.encode import Slot
 from bubblerob_env.ros.topics import MSGTYPES
+from bubblerob_env.ros.values import SCALAR_NAMES, STEP_NAMES, FrameValues
 from bubblerob_env.sensors import CameraSpec, LaserSpec, ProximitySpec, StaticTransform
 
 __all__ = ["FRAME_KEYS", "EnvSpecs", "RosConverter", "split_stamp"]
@@ -99,7 +99,7 @@ def split_stamp(stamp_ns: int) -> tuple[int, int]:
     return stamp_ns // 1_000_000_000, stamp_ns % 1_000_000_000
 
 
-class RosConverter:
+class RosConverter(FrameValues):
     """Builds the messages of one distro from env frames (see the module docstring)."""
 
     def __init__(self, specs: EnvSpecs, distro: str = "jazzy") -> None:
@@ -112,8 +112,7 @@ class RosConverter:
             n.lower(): n for n, _ in self.store.fielddefs["sensor_msgs/msg/CameraInfo"][1]
         }
         self._range_fields = {n for n, _ in self.store.fielddefs["sensor_msgs/msg/Range"][1]}
-        self._proximity_min = specs.proximity.range_min
-        self._proximity_max = specs.proximity.range_max
+        self._init_values(specs)
 
     def frame_keys(self, stepped: bool) -> tuple[str, ...]:
         """Keys of the messages of a frame: after ``reset`` (``stepped=False``) or a ``step``."""
@@ -133,74 +132,9 @@ class RosConverter:
         """Keys that describe the action of a step (logged when it was sent, not after)."""
         return _RESULT_KEYS
 
-    def frame_values(
-        self,
-        obs: Mapping[str, NDArray[Any]],
-        info: Mapping[str, Any],
-        stamp_ns: int,
-        seq: int = 0,
-        action: NDArray[Any] | None = None,
-        reward: float = 0.0,
-        terminated: bool = False,
-        truncated: bool = False,
-    ) -> dict[str, Any]:
-        """Field values of one frame; ``action`` is ``None`` after a ``reset``."""
-        # Called every step while recording: kept to plain calls, numpy only for the scan.
-        sec, nanosec = divmod(stamp_ns, 1_000_000_000)
-        px, py, pz = info["position"].tolist()
-        qw, qx, qy, qz = info["quaternion_wxyz"].tolist()
-        vx, vy, vz, wx, wy, wz = info["body_twist"].tolist()
-        proximity = obs["proximity"].item(0)
-        if proximity >= self._proximity_max:  # REP 117
-            proximity = math.inf
-        elif proximity < self._proximity_min:
-            proximity = -math.inf
-        values: dict[str, Any] = {
-            "sec": sec,
-            "nanosec": nanosec,
-            "seq": seq & 0xFFFFFFFF,
-            "sim_time": stamp_ns * 1e-9,
-            "proximity": proximity,
-            "triggered": bool(info["proximity_triggered"]),
-            "px": px, "py": py, "pz": pz,
-            "qx": qx, "qy": qy, "qz": qz, "qw": qw,
-            "vx": vx, "vy": vy, "vz": vz, "wx": wx, "wy": wy, "wz": wz,
-        }  # fmt: skip
-        laser = self.specs.laser
-        if laser is not None:
-            ranges = obs["laser"].astype("<f4")  # a copy
-            ranges[ranges >= laser.range_max] = np.inf
-            ranges[ranges < laser.range_min] = -np.inf
-            values["ranges"] = ranges.tobytes()
-        if self.specs.camera is not None:
-            values["image"] = np.ascontiguousarray(obs["camera"], dtype=np.uint8).tobytes()
-        if action is not None:
-            raw = np.asarray(action, dtype="<f8").reshape(-1)
-            left, right = info["wheel_command"].tolist()
-            if self.specs.action_type == "twist":
-                linear_action, angular_action = (min(max(v, -1.0), 1.0) for v in raw.tolist())
-                linear = linear_action * self.specs.max_linear_speed
-                angular = angular_action * self.specs.max_angular_speed
-            else:
-                linear, angular = self.specs.drive.body_twist(left, right)
-            values["action"] = raw.tobytes()
-            values["left"] = left
-            values["right"] = right
-            values["linear_x"] = float(linear)
-            values["angular_z"] = float(angular)
-            values["reward"] = float(reward)
-            values["terminated"] = bool(terminated)
-            values["truncated"] = bool(truncated)
-        return values
-
     def slots(self) -> dict[str, Slot]:
         """Placeholders for every value :meth:`frame_values` returns, to build templates."""
-        names = [
-            "sec", "nanosec", "seq", "sim_time", "proximity", "triggered",
-            "px", "py", "pz", "qx", "qy", "qz", "qw", "vx", "vy", "vz", "wx", "wy", "wz",
-            "left", "right", "linear_x", "angular_z", "reward", "terminated", "truncated",
-        ]  # fmt: skip
-        slots = {name: Slot(name) for name in names}
+        slots = {name: Slot(name) for name in (*SCALAR_NAMES, *STEP_NAMES) if name != "action"}
         slots["action"] = Slot("action", 2)
         if self.specs.laser is not None:
             slots["ranges"] = Slot("ranges", self.specs.laser.num_rays)

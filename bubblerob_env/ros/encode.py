@@ -14,7 +14,7 @@ The bytes are those ``rosbags`` would produce (``serialize_cdr`` little-endian o
 from __future__ import annotations
 
 import struct
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -89,20 +89,58 @@ class CompiledMessage:
         self.items = items
         """The unfolded items (``compile_message``/``compile_items`` keep them for framing)."""
         self.slot_names = tuple(name for _, name in slots)
-        # One generated call: pack(c0, v["sec"], c2, ...), constants bound as defaults. The code
-        # holds only argument names and the slot names (checked to be identifiers), no values.
-        by_index = dict(slots)
         for name in self.slot_names:
             if not name.isidentifier():
                 raise ValueError(f"slot names must be identifiers, got {name!r}")
-        args = [f'v["{by_index[i]}"]' if i in by_index else f"c{i}" for i in range(len(template))]
+        self._layout = layout
+        self._template = template
+        self._slots = dict(slots)
+        self._encode = self._generate("v", {name: f'v["{name}"]' for name in self.slot_names})
+
+    def _generate(self, params: str, sources: Mapping[str, str], prelude: str = "") -> Any:
+        """One generated call: ``pack(c0, <source of slot 1>, c2, ...)``, constants as defaults.
+
+        The code holds only argument names, slot names (checked to be identifiers) and indexes,
+        no values.
+        """
+        by_index, template = self._slots, self._template
+        args = [sources[by_index[i]] if i in by_index else f"c{i}" for i in range(len(template))]
         consts = [f"c{i}=c{i}" for i in range(len(template)) if i not in by_index]
-        source = f"def encode(v, {', '.join(['pack=pack', *consts])}):\n"
-        source += f"    return pack({', '.join(args)})\n"
-        namespace: dict[str, Any] = {"pack": layout.pack}
+        source = f"def encode({', '.join([params, 'pack=pack', 'divmod=divmod', *consts])}):\n"
+        source += prelude + f"    return pack({', '.join(args)})\n"
+        namespace: dict[str, Any] = {"pack": self._layout.pack, "divmod": divmod}
         namespace.update({f"c{i}": value for i, value in enumerate(template) if i not in by_index})
         exec(source, namespace)  # noqa: S102 - generated from the names above only
-        self._encode = namespace["encode"]
+        return namespace["encode"]
+
+    def tuple_encoder(
+        self, names: Sequence[str], stamps: Sequence[str] = ()
+    ) -> Callable[..., bytes]:
+        """A function ``encode(values, *stamps)`` that takes the slot values as a tuple.
+
+        Args:
+            names: The slot name of each position of ``values`` (unused positions are allowed).
+            stamps: Names of further arguments, nanosecond stamps ending in ``_ns``: a slot named
+                after one is filled with it, and slots ``<stem>_sec`` and ``<stem>_nsec`` with its
+                seconds and nanoseconds (ROS 1 record headers).
+
+        Raises:
+            ValueError: A slot has no source among ``names`` and ``stamps``.
+        """
+        sources = {name: f"a[{i}]" for i, name in enumerate(names) if name.isidentifier()}
+        prelude = ""
+        for stamp in stamps:
+            if not stamp.isidentifier() or not stamp.endswith("_ns"):
+                raise ValueError(f"stamp arguments are identifiers ending in _ns, got {stamp!r}")
+            stem = stamp[: -len("_ns")]
+            sources[stamp] = stamp
+            if f"{stem}_sec" in self.slot_names or f"{stem}_nsec" in self.slot_names:
+                sources[f"{stem}_sec"], sources[f"{stem}_nsec"] = f"{stem}_sec", f"{stem}_nsec"
+                prelude += f"    {stem}_sec, {stem}_nsec = divmod({stamp}, 1000000000)\n"
+        missing = sorted(set(self.slot_names) - set(sources))
+        if missing:
+            raise ValueError(f"slots {missing} are neither among the values nor the stamps")
+        return self._generate(", ".join(["a", *stamps]), sources, prelude)  # type: ignore[no-any-return]
 
     def encode(self, values: Mapping[str, Any]) -> bytes:
         """Serialised message with every slot taken from ``values`` (by slot name)."""

@@ -231,16 +231,8 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
         with safety.critical:
             obs, reward, terminated, truncated, info = self.env.step(action)
             stamp = self._offset_ns + round(float(info["sim_time"]) * 1e9)
-            self._fanout.write_frame(
-                obs,
-                info,
-                stamp,
-                self._seq,
-                action=np.asarray(action),
-                action_stamp_ns=self._last_ns,
-                reward=float(reward),
-                terminated=bool(terminated),
-                truncated=bool(truncated),
+            self._fanout.write_frame(  # positional: called every step
+                obs, info, stamp, self._seq, action, self._last_ns, reward, terminated, truncated
             )
             self._seq += 1
             self._last_ns = stamp

@@ -13,16 +13,17 @@ framing`) get the whole frame, record headers included, from one generated ``str
 from __future__ import annotations
 
 import struct
-from collections.abc import Mapping, Sequence
-from typing import Any
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any, SupportsFloat
 
 from numpy.typing import NDArray
 
 from bubblerob_env.ros.convert import EnvSpecs, RosConverter
 from bubblerob_env.ros.encode import CompiledMessage, Item, compile_items, compile_message
+from bubblerob_env.ros.framing import FrameLayout, Framing, Record
 from bubblerob_env.ros.sinks import BagSink
 from bubblerob_env.ros.topics import LATCHED_TOPICS, MSGTYPES, Topics
-from bubblerob_env.ros.writers import FrameLayout, Framing, Record
+from bubblerob_env.ros.writers import PackedWriter
 
 __all__ = ["FramePacker", "FrameSerializer", "MessageFanout"]
 
@@ -30,14 +31,15 @@ _Plan = list[tuple[str, CompiledMessage, bool]]  # (topic, encoder, logged at th
 
 
 class FramePacker:
-    """One frame's records, each behind its :class:`~bubblerob_env.ros.writers.Framing` header.
+    """One frame's records, each behind its :class:`~bubblerob_env.ros.framing.Framing` header.
 
-    The whole frame is packed by one ``struct`` call (constants folded, see
-    :func:`~bubblerob_env.ros.encode.compile_items`); :attr:`layout` tells the writer where each
-    record starts, so that it can index them when the chunk closes.
+    The whole frame is packed by one generated ``struct`` call (constants folded, see
+    :func:`~bubblerob_env.ros.encode.compile_items`) straight from the tuple of
+    :meth:`~bubblerob_env.ros.convert.RosConverter.frame_args`; :attr:`layout` tells the writer
+    where each record starts, so that it can index them when the chunk closes.
     """
 
-    def __init__(self, plan: _Plan, framing: Framing) -> None:
+    def __init__(self, plan: _Plan, framing: Framing, names: Sequence[str]) -> None:
         items: list[Item] = []
         channels, offsets, action = [], [], []
         self._payloads: list[tuple[str, int, int, bool]] = []
@@ -53,21 +55,13 @@ class FramePacker:
             items += header
             items += encoder.items
             pos += head + encoder.size
-        self._compiled = compile_items(items)
-        assert self._compiled.size == pos
+        compiled = compile_items(items)
+        assert compiled.size == pos
         self.layout = FrameLayout(tuple(channels), tuple(offsets), tuple(action), pos)
-        self._ros1 = framing.kind == "ros1"
-
-    def pack(self, values: dict[str, Any], stamp_ns: int, action_stamp_ns: int) -> bytes:
-        """The frame's bytes; adds the log-time slots to ``values``."""
-        values["log_ns"] = stamp_ns
-        values["action_log_ns"] = action_stamp_ns
-        if self._ros1:
-            values["log_sec"], values["log_nsec"] = divmod(stamp_ns, 1_000_000_000)
-            values["action_log_sec"], values["action_log_nsec"] = divmod(
-                action_stamp_ns, 1_000_000_000
-            )
-        return self._compiled.encode(values)
+        self.pack: Callable[[tuple[Any, ...], int, int], bytes] = compiled.tuple_encoder(
+            names, ("log_ns", "action_log_ns")
+        )
+        """``pack(frame_args, stamp_ns, action_stamp_ns)``: the frame's bytes."""
 
     def records(self, data: bytes, stamp_ns: int, action_stamp_ns: int) -> list[Record]:
         """The frame's records, their messages sliced from packed ``data``."""
@@ -108,7 +102,8 @@ class FrameSerializer:
         """The packer of frames after a ``step`` (or a ``reset``) for ``framing`` (cached)."""
         key = (framing, stepped)
         if key not in self._packers:
-            self._packers[key] = FramePacker(self._plans[stepped], framing)
+            names = self.converter.value_names(stepped)
+            self._packers[key] = FramePacker(self._plans[stepped], framing, names)
         return self._packers[key]
 
     def topics(self) -> list[tuple[str, str, bool]]:
@@ -144,18 +139,25 @@ class FrameSerializer:
         return (self.names["episode"], stamp_ns, self._serialize("episode", message))
 
 
-_Route = tuple[BagSink, Framing | None]
+_Send = Callable[[tuple[Any, ...], int, int], None]  # (frame args, stamp, action stamp)
 
 
 class MessageFanout:
-    """Frames in, serialised records out to every sink; each message serialised once per distro."""
+    """Frames in, serialised records out to every sink; each message serialised once per distro.
+
+    Per frame the work is planned once per set of sinks (:meth:`_update_routes`): one send per
+    distro, which packs the frame once per framing and hands the bytes to each sink's
+    :meth:`~bubblerob_env.ros.sinks.BagSink.packed_writer`; sinks without framing get records.
+    """
 
     def __init__(self, specs: EnvSpecs, topics: Topics) -> None:
         self.specs = specs
         self.topics = topics
         self._serializers: dict[str, FrameSerializer] = {}
         self._sinks: dict[str, list[BagSink]] = {}
-        self._routes: dict[str, list[_Route]] = {}  # per distro: packing sinks first
+        self._sends: dict[str, tuple[_Send, _Send]] = {}  # per distro: after a reset, a step
+        self._plan: tuple[list[_Send], list[_Send]] = ([], [])  # every distro's sends
+        self._convert: Callable[..., tuple[Any, ...]] | None = None  # frame_args
 
     def serializer(self, distro: str) -> FrameSerializer:
         """The serializer of ``distro`` (made on first use)."""
@@ -168,12 +170,8 @@ class MessageFanout:
         serializer = self.serializer(sink.distro)
         for name, msgtype, latched in serializer.topics():
             sink.add_topic(name, msgtype, latched)
-        framing = sink.framing()
-        if framing is not None:  # compile now: errors before the first frame
-            serializer.packer(framing, False)
-            serializer.packer(framing, True)
         self._sinks.setdefault(sink.distro, []).append(sink)
-        self._update_routes(sink.distro)
+        self._update_routes(sink.distro)  # compiles the packers now: errors before the first frame
 
     def remove_sink(self, sink: BagSink) -> None:
         """Stop sending to ``sink`` (it is not closed)."""
@@ -183,11 +181,56 @@ class MessageFanout:
         self._update_routes(sink.distro)
 
     def _update_routes(self, distro: str) -> None:
-        routes = [(sink, sink.framing()) for sink in self._sinks.get(distro, [])]
-        if routes:
-            self._routes[distro] = sorted(routes, key=lambda route: route[1] is None)
+        """Plan the sends of ``distro`` for its current sinks (and their current framings)."""
+        sinks = self._sinks.get(distro, [])
+        if sinks:
+            self._sends[distro] = (self._sender(distro, False), self._sender(distro, True))
         else:
-            self._routes.pop(distro, None)
+            self._sends.pop(distro, None)
+        self._plan = ([s[0] for s in self._sends.values()], [s[1] for s in self._sends.values()])
+        # Frame values do not depend on the distro: any converter computes them for all.
+        first = next(iter(self._sends), None)
+        self._convert = None if first is None else self._serializers[first].converter.frame_args
+
+    def _sender(self, distro: str, stepped: bool) -> _Send:
+        serializer = self._serializers[distro]
+        groups: dict[Framing, tuple[FramePacker, list[PackedWriter]]] = {}
+        plain: list[BagSink] = []
+        for sink in self._sinks[distro]:
+            framing = sink.framing()
+            if framing is None:
+                plain.append(sink)
+            else:
+                packer = serializer.packer(framing, stepped)
+                groups.setdefault(framing, (packer, []))[1].append(sink.packed_writer())
+        packs = [(packer.pack, packer.layout, writers) for packer, writers in groups.values()]
+        if len(packs) == 1 and len(packs[0][2]) == 1 and not plain:  # a recorder: one bag
+            ((pack, layout, (write,)),) = packs
+
+            def send_one(args: tuple[Any, ...], stamp: int, action_stamp: int) -> None:
+                write(pack(args, stamp, action_stamp), layout, stamp, action_stamp)
+
+            return send_one
+        first = next(iter(groups.values()), (None, []))[0]
+        names = serializer.converter.value_names(stepped)
+
+        def send(args: tuple[Any, ...], stamp: int, action_stamp: int) -> None:
+            sliced: bytes | None = None  # the first framing's bytes
+            for pack, layout, writers in packs:
+                data = pack(args, stamp, action_stamp)
+                sliced = data if sliced is None else sliced
+                for write in writers:
+                    write(data, layout, stamp, action_stamp)
+            if plain:
+                if first is not None and sliced is not None:  # sliced: serialised once
+                    records = first.records(sliced, stamp, action_stamp)
+                else:
+                    values = dict(zip(names, args, strict=True))
+                    records = serializer.frame(values, stamp, action_stamp, stepped)
+                for sink in plain:
+                    sink.write_batch(records)
+
+        return send
 
     @property
     def sinks(self) -> list[BagSink]:
@@ -202,51 +245,18 @@ class MessageFanout:
         seq: int,
         action: NDArray[Any] | None = None,
         action_stamp_ns: int | None = None,
-        reward: float = 0.0,
+        reward: SupportsFloat = 0.0,
         terminated: bool = False,
         truncated: bool = False,
     ) -> None:
         """Send one frame (``action=None``: a reset) to every sink."""
-        if not self._routes:
+        convert = self._convert
+        if convert is None:
             return
-        first = self._serializers[next(iter(self._routes))]
-        values = first.converter.frame_values(
-            obs, info, stamp_ns, seq, action, reward, terminated, truncated
-        )
-        stepped = action is not None
+        args = convert(obs, info, stamp_ns, seq, action, reward, terminated, truncated)
         action_stamp = stamp_ns if action_stamp_ns is None else action_stamp_ns
-        for distro, routes in self._routes.items():
-            self._send(distro, routes, values, stamp_ns, action_stamp, stepped)
-
-    def _send(
-        self,
-        distro: str,
-        routes: Sequence[_Route],
-        values: dict[str, Any],
-        stamp_ns: int,
-        action_stamp: int,
-        stepped: bool,
-    ) -> None:
-        serializer = self._serializers[distro]
-        packed: dict[Framing, bytes] = {}
-        records: list[Record] | None = None
-        for sink, framing in routes:
-            if framing is not None:
-                packer = serializer.packer(framing, stepped)
-                data = packed.get(framing)
-                if data is None:
-                    data = packed[framing] = packer.pack(values, stamp_ns, action_stamp)
-                sink.write_packed(data, packer.layout, stamp_ns, action_stamp)
-            else:
-                if records is None:
-                    if packed:  # slice the messages out of a packed frame: serialised once
-                        framing, data = next(iter(packed.items()))
-                        records = serializer.packer(framing, stepped).records(
-                            data, stamp_ns, action_stamp
-                        )
-                    else:
-                        records = serializer.frame(values, stamp_ns, action_stamp, stepped)
-                sink.write_batch(records)
+        for send in self._plan[action is not None]:
+            send(args, stamp_ns, action_stamp)
 
     def write_records(self, make: Any) -> None:
         """Send records made per distro by ``make(serializer) -> list[Record]``."""

@@ -34,6 +34,7 @@ from bubblerob_env.ros.distros import get_distro, message_definition
 from bubblerob_env.ros.writers import (
     FrameLayout,
     Framing,
+    PackedWriter,
     Record,
     Ros1Writer,
     Rosbag2Writer,
@@ -133,6 +134,10 @@ class BagSink:
         """Append one packed frame: records framed by :meth:`framing`, laid out as ``layout``."""
         raise NotImplementedError
 
+    def packed_writer(self) -> PackedWriter:
+        """The fastest callable doing :meth:`write_packed` (looked up once, called per frame)."""
+        return self.write_packed
+
     def set_metadata(self, key: str, value: str) -> None:
         """Bag-level metadata (ROS 2 ``custom_data``, also in MCAP's metadata); ROS 1: ignored."""
 
@@ -178,6 +183,9 @@ class _Ros1Sink(BagSink):
 
     def write_packed(self, data: bytes, layout: FrameLayout, stamp_ns: int, action_ns: int) -> None:
         self._writer.write_packed(data, layout, stamp_ns, action_ns)
+
+    def packed_writer(self) -> PackedWriter:
+        return self._writer.write_packed
 
     def flush(self) -> None:
         self._writer.flush()
@@ -239,6 +247,9 @@ class _Rosbag2Sink(BagSink):
 
     def write_packed(self, data: bytes, layout: FrameLayout, stamp_ns: int, action_ns: int) -> None:
         self._writer.write_packed(data, layout, stamp_ns, action_ns)
+
+    def packed_writer(self) -> PackedWriter:
+        return self._writer.packed_writer()
 
     def set_metadata(self, key: str, value: str) -> None:
         self._writer.set_custom_data(key, value)

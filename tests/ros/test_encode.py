@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import struct
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -64,3 +66,27 @@ def test_unknown_encoding_is_rejected():
     template = converter.message("reward", converter.slots())
     with pytest.raises(ValueError, match="encoding"):
         compile_message(converter.store, MSGTYPES["reward"], template, "json")
+
+
+@pytest.mark.parametrize("distro", ["noetic", "jazzy"])
+def test_tuple_encoder_packs_frame_args_as_encode_packs_frame_values(distro):
+    specs, obs, info, action, reward, terminated, truncated = _frame("twist")
+    converter = RosConverter(specs, distro)
+    frame = (obs, info, 5_000_000_001, 9, action, reward, terminated, truncated)
+    args, values = converter.frame_args(*frame), converter.frame_values(*frame)
+    names = converter.value_names(True)
+    encoding = converter.distro.encoding
+    for key in converter.frame_keys(stepped=True):
+        template = converter.message(key, converter.slots())
+        compiled = compile_message(converter.store, MSGTYPES[key], template, encoding)
+        assert compiled.tuple_encoder(names)(args) == compiled.encode(values), key
+
+
+def test_tuple_encoder_splits_stamps_and_rejects_unknown_slots():
+    from bubblerob_env.ros.encode import compile_items
+
+    compiled = compile_items([("I", Slot("log_sec")), ("I", Slot("log_nsec")), ("d", Slot("x"))])
+    encode = compiled.tuple_encoder(["x"], ("log_ns",))
+    assert encode((0.5,), 3_000_000_007) == struct.pack("<IId", 3, 7, 0.5)
+    with pytest.raises(ValueError, match="neither among"):
+        compiled.tuple_encoder(["y"], ("log_ns",))

@@ -1,0 +1,124 @@
+"""Packed frames: the record headers writers put before messages, and the index entries of frames.
+
+MCAP and ROS 1 writers take a frame's records, headers included, as one byte string packed by one
+``struct`` call upstream (:class:`~bubblerob_env.ros.serialize.FramePacker`). :class:`Framing`
+says which header goes before each message; :class:`FrameLayout` where each record of a packed
+frame starts. Writers index packed frames when their chunk closes, with numpy
+(:func:`index_frames`), giving the bytes the same records written one by one give.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from rosbags.rosbag1.writer import MAXSIZE
+
+from bubblerob_env.ros.encode import Item, Slot
+
+__all__ = ["LOG_SLOTS", "FrameLayout", "Framing", "Record", "index_entries", "index_frames"]
+
+Record = tuple[str, int, bytes]
+"""``(topic, log time in ns, serialised message)``."""
+
+LOG_SLOTS = ("log_ns", "log_sec", "log_nsec")
+"""Slot names of a record's log time in :meth:`Framing.header` (ns; ROS 1: sec and nsec); records
+logged at the action's stamp use them prefixed with ``action_``."""
+
+
+@dataclass(frozen=True)
+class Framing:
+    """The header a writer puts before each message record in a chunk, as ``struct`` items.
+
+    ``kind`` is ``"mcap"`` or ``"ros1"``; ``ids`` maps each topic to its channel (MCAP) or
+    connection (ROS 1) id. Two sinks with equal framings take the same packed bytes.
+    """
+
+    kind: str
+    ids: tuple[tuple[str, int], ...]
+
+    def header(self, topic: str, size: int, action: bool) -> list[Item]:
+        """Items of the header of a ``size``-byte message on ``topic`` (see :data:`LOG_SLOTS`)."""
+        cid = dict(self.ids)[topic]
+        prefix = "action_" if action else ""
+        if self.kind == "mcap":
+            stamp = Slot(prefix + "log_ns")
+            return [("B", 0x05), ("Q", 22 + size), ("H", cid), ("I", 0), ("Q", stamp), ("Q", stamp)]
+        if self.kind == "ros1":
+            sec, nsec = Slot(prefix + "log_sec"), Slot(prefix + "log_nsec")
+            return [
+                ("I", 38), ("I", 4), ("4s", b"op=\x02"), ("I", 9), ("5s", b"conn="), ("I", cid),
+                ("I", 13), ("5s", b"time="), ("I", sec), ("I", nsec), ("I", size),
+            ]  # fmt: skip
+        raise ValueError(f"unknown framing {self.kind!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class FrameLayout:
+    """Where the records of a packed frame start, their channel ids, and which stamp each has.
+
+    ``action[i]``: record ``i`` is logged at the action's stamp, else at the frame's.
+    """
+
+    channels: tuple[int, ...]
+    offsets: tuple[int, ...]
+    action: tuple[bool, ...]
+    size: int
+
+    @property
+    def has_action(self) -> bool:
+        """Whether any record is logged at the action's stamp."""
+        return any(self.action)
+
+
+Frame = tuple[FrameLayout, int, int, int]
+"""A packed frame in a chunk: its layout, position in the chunk, stamp and action stamp."""
+Index = dict[int, list[Any]]
+"""Channel -> its ``(stamp, position)`` tuples and ``(n, 2)`` arrays of them, in write order."""
+
+
+def index_frames(frames: list[Frame], index: Index) -> tuple[int, int, dict[int, int]]:
+    """Append the index entries of ``frames`` to ``index``, in the order records were written.
+
+    Returns the lowest and highest log time and the number of records per channel.
+    """
+    low, high = MAXSIZE, 0
+    counts: dict[int, int] = defaultdict(int)
+    start = 0
+    while start < len(frames):
+        layout = frames[start][0]
+        end = start + 1
+        while end < len(frames) and frames[end][0] is layout:
+            end += 1
+        block = np.array([frame[1:] for frame in frames[start:end]], dtype=np.int64)
+        stamps = {False: block[:, 1], True: block[:, 2]}
+        for cid, offset, action in zip(layout.channels, layout.offsets, layout.action, strict=True):
+            entries = np.empty((end - start, 2), dtype=np.int64)
+            entries[:, 0] = stamps[action]
+            entries[:, 1] = block[:, 0] + offset
+            index[cid].append(entries)
+            counts[cid] += end - start
+        for action in set(layout.action):
+            low = min(low, int(stamps[action].min()))
+            high = max(high, int(stamps[action].max()))
+        start = end
+    return low, high, counts
+
+
+def index_entries(items: list[Any]) -> Iterator[NDArray[np.int64]]:
+    """``(n, 2)`` arrays of ``(stamp, position)`` from index tuples and arrays, in order."""
+    run: list[tuple[int, int]] = []
+    for item in items:
+        if isinstance(item, tuple):
+            run.append(item)
+            continue
+        if run:
+            yield np.array(run, dtype=np.int64)
+            run = []
+        yield item
+    if run:
+        yield np.array(run, dtype=np.int64)
