@@ -100,10 +100,21 @@ def split_stamp(stamp_ns: int) -> tuple[int, int]:
 
 
 class RosConverter(FrameValues):
-    """Builds the messages of one distro from env frames (see the module docstring)."""
+    """Builds the messages of one distro from env frames (see the module docstring).
 
-    def __init__(self, specs: EnvSpecs, distro: str = "jazzy") -> None:
+    ``frame_prefix`` (e.g. ``"robot2/"``, as :attr:`~bubblerob_env.ros.topics.Topics.frame_prefix`
+    gives for a namespace) goes before every frame id, so that robots sharing one ROS graph keep
+    separate tf trees on the shared ``/tf``; empty by default (``odom``, ``base_link``, ...).
+    """
+
+    def __init__(self, specs: EnvSpecs, distro: str = "jazzy", frame_prefix: str = "") -> None:
+        if frame_prefix and (frame_prefix.startswith("/") or not frame_prefix.endswith("/")):
+            raise ValueError(
+                f"frame_prefix must look like 'robot2/' (no leading slash, REP 105 / tf2), "
+                f"got {frame_prefix!r}"
+            )
         self.specs = specs
+        self.frame_prefix = frame_prefix
         self.distro = get_distro(distro)
         self.store: Typestore = typestore(distro)
         self._types = self.store.types
@@ -158,8 +169,12 @@ class RosConverter(FrameValues):
     def _header(self, v: Mapping[str, Any], frame_id: str) -> Any:
         stamp = self._time(v["sec"], v["nanosec"])
         if self._ros1:
-            return self._types["std_msgs/msg/Header"](seq=v["seq"], stamp=stamp, frame_id=frame_id)
-        return self._types["std_msgs/msg/Header"](stamp=stamp, frame_id=frame_id)
+            return self._types["std_msgs/msg/Header"](
+                seq=v["seq"], stamp=stamp, frame_id=self.frame_prefix + frame_id
+            )
+        return self._types["std_msgs/msg/Header"](
+            stamp=stamp, frame_id=self.frame_prefix + frame_id
+        )
 
     def _vector3(self, x: Any, y: Any, z: Any) -> Any:
         return self._types["geometry_msgs/msg/Vector3"](x=x, y=y, z=z)
@@ -269,7 +284,7 @@ class RosConverter(FrameValues):
         return self._msg(
             "odom",
             header=self._header(v, ODOM_FRAME),
-            child_frame_id=BASE_FRAME,
+            child_frame_id=self.frame_prefix + BASE_FRAME,
             pose=t["geometry_msgs/msg/PoseWithCovariance"](pose=pose, covariance=zeros),
             twist=t["geometry_msgs/msg/TwistWithCovariance"](twist=twist, covariance=zeros),
         )
@@ -280,7 +295,9 @@ class RosConverter(FrameValues):
             translation=self._vector3(*xyz), rotation=self._quaternion(*xyzw)
         )
         return t["geometry_msgs/msg/TransformStamped"](
-            header=self._header(v, parent), child_frame_id=child, transform=transform
+            header=self._header(v, parent),
+            child_frame_id=self.frame_prefix + child,
+            transform=transform,
         )
 
     def _tf(self, v: Mapping[str, Any]) -> Any:

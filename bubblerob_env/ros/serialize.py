@@ -75,7 +75,7 @@ class FrameSerializer:
     """Serialised messages of frames, for one distro and topic set."""
 
     def __init__(self, specs: EnvSpecs, distro: str, topics: Topics) -> None:
-        self.converter = RosConverter(specs, distro)
+        self.converter = RosConverter(specs, distro, topics.frame_prefix)
         self.names = topics.resolved()
         store = self.converter.store
         encoding = self.converter.distro.encoding

@@ -98,6 +98,16 @@ class Topics:
         if duplicated:
             raise ValueError(f"topic names must be distinct, repeated: {duplicated}")
 
+    @property
+    def frame_prefix(self) -> str:
+        """Prefix of this robot's tf frame ids: ``"robot2/"`` under namespace ``robot2``.
+
+        Empty without a namespace. ``/tf`` is shared by every robot in a graph, so namespaced
+        robots need frames of their own.
+        """
+        name = self.namespace.strip("/")
+        return f"{name}/" if name else ""
+
     def resolved(self) -> dict[str, str]:
         """Full name of every recorded key, namespace applied, in :data:`MSGTYPES` order."""
         prefix = "/" + self.namespace.strip("/") if self.namespace.strip("/") else ""

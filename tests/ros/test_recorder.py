@@ -12,6 +12,7 @@ from ros_helpers import FORMAT_CASES, FORWARD, drive, read_all
 
 from bubblerob_env.ros import RosBagRecorder, Topics, recorded_env_fns
 from bubblerob_env.ros.bagread import read_summary
+from bubblerob_env.ros.convert import EnvSpecs, RosConverter
 from bubblerob_env.ros.sinks import BagPathError
 
 STEP_TOPICS = ("/cmd_vel", "/leftMotorSpeed", "/rightMotorSpeed", "/bubblerob/action", "/reward")
@@ -171,6 +172,37 @@ def test_custom_topic_names_and_namespace(tmp_path):
     names = {t.name for t in read_summary(recorder.bag_paths[0]).topics}
     assert {"/robot1/base_scan", "/robot1/cmd_vel", "/tf", "/clock"} <= names
     assert not any("sensorTrigger" in n for n in names)
+
+
+@pytest.mark.parametrize("fmt", ["mcap", "ros1"])
+def test_namespace_prefixes_every_frame_id(tmp_path, fmt):
+    # /tf is shared by all robots in a graph: robot2's tree must not collide with robot1's.
+    topics = Topics(namespace="robot2")
+    with RosBagRecorder(
+        gym.make("BubbleRob-v0"), tmp_path / "bag", format=fmt, topics=topics
+    ) as recorder:
+        drive(recorder, episodes=1, steps=2)
+    messages = read_all(recorder.bag_paths[0])
+    (_, tf), *_ = messages["/tf"]
+    assert [(t.header.frame_id, t.child_frame_id) for t in tf.transforms] == [
+        ("robot2/odom", "robot2/base_link")
+    ]
+    (_, odom), *_ = messages["/robot2/odom"]
+    assert (odom.header.frame_id, odom.child_frame_id) == ("robot2/odom", "robot2/base_link")
+    (_, scan), *_ = messages["/robot2/scan"]
+    assert scan.header.frame_id == "robot2/laser_link"
+    (_, static), *_ = messages["/tf_static"]
+    parents = {t.header.frame_id for t in static.transforms}
+    children = {t.child_frame_id for t in static.transforms}
+    assert "robot2/base_link" in parents and "robot2/laser_link" in children
+    assert all(frame.startswith("robot2/") for frame in parents | children)
+
+
+def test_frame_prefix_must_end_with_a_slash():
+    specs = EnvSpecs.from_env(gym.make("BubbleRob-v0"))
+    for bad in ("/robot2/", "robot2"):
+        with pytest.raises(ValueError, match=repr(bad)):
+            RosConverter(specs, "jazzy", frame_prefix=bad)
 
 
 def test_existing_bag_raises_before_the_env_is_used(tmp_path, record):
