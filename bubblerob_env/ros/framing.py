@@ -20,7 +20,15 @@ from rosbags.rosbag1.writer import MAXSIZE
 
 from bubblerob_env.ros.encode import Item, Slot
 
-__all__ = ["LOG_SLOTS", "FrameLayout", "Framing", "Record", "index_entries", "index_frames"]
+__all__ = [
+    "LOG_SLOTS",
+    "FrameLayout",
+    "Framing",
+    "Record",
+    "frames_before_full",
+    "index_entries",
+    "index_frames",
+]
 
 Record = tuple[str, int, bytes]
 """``(topic, log time in ns, serialised message)``."""
@@ -75,10 +83,32 @@ class FrameLayout:
         return any(self.action)
 
 
-Frame = tuple[FrameLayout, int, int, int]
-"""A packed frame in a chunk: its layout, position in the chunk, stamp and action stamp."""
+Frame = tuple[FrameLayout, int, Any, Any]
+"""Packed frames in a chunk: their layout, the first one's position in the chunk, and the stamp
+and action stamp (ints: one frame; equal-length ``int64`` arrays: that many frames in a row)."""
 Index = dict[int, list[Any]]
 """Channel -> its ``(stamp, position)`` tuples and ``(n, 2)`` arrays of them, in write order."""
+
+
+def _runs(frames: list[Frame]) -> Iterator[tuple[FrameLayout, NDArray[np.int64], Any, Any]]:
+    """Layout, positions, stamps and action stamps of runs of frames with the same layout."""
+    start = 0
+    while start < len(frames):
+        layout, pos, stamps, action_stamps = frames[start]
+        if isinstance(stamps, np.ndarray):  # a batch of frames, back to back
+            yield layout, pos + layout.size * np.arange(len(stamps)), stamps, action_stamps
+            start += 1
+            continue
+        end = start + 1
+        while (
+            end < len(frames)
+            and frames[end][0] is layout
+            and not isinstance(frames[end][2], np.ndarray)
+        ):
+            end += 1
+        block = np.array([frame[1:] for frame in frames[start:end]], dtype=np.int64)
+        yield layout, block[:, 0], block[:, 1], block[:, 2]
+        start = end
 
 
 def index_frames(frames: list[Frame], index: Index) -> tuple[int, int, dict[int, int]]:
@@ -88,25 +118,27 @@ def index_frames(frames: list[Frame], index: Index) -> tuple[int, int, dict[int,
     """
     low, high = MAXSIZE, 0
     counts: dict[int, int] = defaultdict(int)
-    start = 0
-    while start < len(frames):
-        layout = frames[start][0]
-        end = start + 1
-        while end < len(frames) and frames[end][0] is layout:
-            end += 1
-        block = np.array([frame[1:] for frame in frames[start:end]], dtype=np.int64)
-        stamps = {False: block[:, 1], True: block[:, 2]}
+    for layout, positions, frame_stamps, action_stamps in _runs(frames):
+        stamps = {False: frame_stamps, True: action_stamps}
         for cid, offset, action in zip(layout.channels, layout.offsets, layout.action, strict=True):
-            entries = np.empty((end - start, 2), dtype=np.int64)
+            entries = np.empty((len(positions), 2), dtype=np.int64)
             entries[:, 0] = stamps[action]
-            entries[:, 1] = block[:, 0] + offset
+            entries[:, 1] = positions + offset
             index[cid].append(entries)
-            counts[cid] += end - start
+            counts[cid] += len(positions)
         for action in set(layout.action):
             low = min(low, int(stamps[action].min()))
             high = max(high, int(stamps[action].max()))
-        start = end
     return low, high, counts
+
+
+def frames_before_full(pos: int, size: int, threshold: int) -> int:
+    """How many ``size``-byte frames to append at ``pos`` before a chunk exceeds ``threshold``.
+
+    Frame by frame, writers close the chunk right after the first frame that ends beyond the
+    threshold; a batch is split at the same frame, so that both give the same chunks.
+    """
+    return max(1, (threshold - pos) // size + 1)
 
 
 def index_entries(items: list[Any]) -> Iterator[NDArray[np.int64]]:

@@ -14,11 +14,21 @@ from collections import defaultdict
 from collections.abc import Sequence
 from io import BytesIO
 from pathlib import Path
+from typing import Any
 
+import numpy as np
+from numpy.typing import NDArray
 from rosbags.rosbag2 import CompressionMode
 from rosbags.rosbag2.storage_mcap import McapWriter, PendingChunk
 
-from bubblerob_env.ros.framing import Frame, FrameLayout, Record, index_entries, index_frames
+from bubblerob_env.ros.framing import (
+    Frame,
+    FrameLayout,
+    Record,
+    frames_before_full,
+    index_entries,
+    index_frames,
+)
 
 if sys.version_info >= (3, 14):  # the zstd that rosbags uses
     from compression import zstd
@@ -65,6 +75,26 @@ class McapStorage(McapWriter):
         bio.write(data)
         if pos + layout.size > self.CHUNK_SIZE:
             self.close_chunk()
+
+    def write_packed_batch(
+        self, data: Any, layout: FrameLayout, stamps: NDArray[np.int64], action_stamps: Any
+    ) -> None:
+        """Append ``len(stamps)`` packed frames, back to back in ``data`` (a bytes-like object).
+
+        The chunks close where they would frame by frame (:func:`frames_before_full`).
+        """
+        size, count, done = layout.size, len(stamps), 0
+        view = memoryview(data).cast("B")
+        while done < count:
+            bio = self.chunk.bio
+            pos = bio.tell()
+            take = min(count - done, frames_before_full(pos, size, self.CHUNK_SIZE))
+            end = done + take
+            self._frames.append((layout, pos, stamps[done:end], action_stamps[done:end]))
+            bio.write(view[done * size : end * size])
+            done = end
+            if pos + take * size > self.CHUNK_SIZE:
+                self.close_chunk()
 
     def index_pending(self) -> None:
         """Index the packed frames written so far and count their messages."""

@@ -237,6 +237,7 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
             self._seq += 1
             self._last_ns = stamp
             if (terminated or truncated) and self._sink is not None:
+                self._fanout.flush()  # batched frames, then the sink's chunk: on disk
                 self._sink.flush()
         return obs, float(reward), terminated, truncated, info
 

@@ -34,6 +34,7 @@ from bubblerob_env.ros.distros import get_distro, message_definition
 from bubblerob_env.ros.writers import (
     FrameLayout,
     Framing,
+    PackedBatchWriter,
     PackedWriter,
     Record,
     Ros1Writer,
@@ -138,6 +139,10 @@ class BagSink:
         """The fastest callable doing :meth:`write_packed` (looked up once, called per frame)."""
         return self.write_packed
 
+    def packed_batch_writer(self) -> PackedBatchWriter:
+        """The callable that appends many packed frames at once (sinks with a framing)."""
+        raise NotImplementedError
+
     def set_metadata(self, key: str, value: str) -> None:
         """Bag-level metadata (ROS 2 ``custom_data``, also in MCAP's metadata); ROS 1: ignored."""
 
@@ -186,6 +191,9 @@ class _Ros1Sink(BagSink):
 
     def packed_writer(self) -> PackedWriter:
         return self._writer.write_packed
+
+    def packed_batch_writer(self) -> PackedBatchWriter:
+        return self._writer.write_packed_batch
 
     def flush(self) -> None:
         self._writer.flush()
@@ -250,6 +258,9 @@ class _Rosbag2Sink(BagSink):
 
     def packed_writer(self) -> PackedWriter:
         return self._writer.packed_writer()
+
+    def packed_batch_writer(self) -> PackedBatchWriter:
+        return self._writer.packed_batch_writer()
 
     def set_metadata(self, key: str, value: str) -> None:
         self._writer.set_custom_data(key, value)

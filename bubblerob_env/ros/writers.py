@@ -17,9 +17,11 @@ import struct
 from collections import defaultdict
 from collections.abc import Callable, Sequence
 from io import BytesIO
+from typing import Any
 
 import lz4.frame  # type: ignore[import-untyped]
 import numpy as np
+from numpy.typing import NDArray
 from rosbags import rosbag1, rosbag2
 from rosbags.rosbag1.writer import MAXSIZE, Header, RecordType, WriteChunk
 from rosbags.rosbag2 import StoragePlugin
@@ -31,6 +33,7 @@ from bubblerob_env.ros.framing import (
     FrameLayout,
     Framing,
     Record,
+    frames_before_full,
     index_entries,
     index_frames,
 )
@@ -40,6 +43,7 @@ __all__ = [
     "LOG_SLOTS",
     "FrameLayout",
     "Framing",
+    "PackedBatchWriter",
     "PackedWriter",
     "Record",
     "Ros1Writer",
@@ -50,6 +54,8 @@ __all__ = [
 
 PackedWriter = Callable[[bytes, FrameLayout, int, int], None]
 """``write_packed(data, layout, stamp, action_stamp)`` of a writer."""
+PackedBatchWriter = Callable[[Any, FrameLayout, NDArray[np.int64], NDArray[np.int64]], None]
+"""``write_packed_batch(data, layout, stamps, action_stamps)``: ``len(stamps)`` packed frames."""
 
 _ROS1_MESSAGE = struct.Struct("<II4sI5sII5sIII")  # header length, op, conn, time; data length
 
@@ -93,6 +99,26 @@ class Ros1Writer(rosbag1.Writer):
         chunk.data.write(data)
         if chunk.data.tell() > self.chunk_threshold:
             self.write_chunk(chunk)
+
+    def write_packed_batch(
+        self, data: Any, layout: FrameLayout, stamps: NDArray[np.int64], action_stamps: Any
+    ) -> None:
+        """Append ``len(stamps)`` packed frames, back to back in ``data`` (a bytes-like object).
+
+        The chunks close where they would frame by frame (:func:`frames_before_full`).
+        """
+        size, count, done = layout.size, len(stamps), 0
+        view = memoryview(data).cast("B")
+        while done < count:
+            chunk = self.chunks[-1]
+            pos = chunk.data.tell()
+            take = min(count - done, frames_before_full(pos, size, self.chunk_threshold))
+            end = done + take
+            self._frames.append((layout, pos, stamps[done:end], action_stamps[done:end]))
+            chunk.data.write(view[done * size : end * size])
+            done = end
+            if chunk.data.tell() > self.chunk_threshold:
+                self.write_chunk(chunk)
 
     def _index_pending(self, chunk: WriteChunk) -> None:
         if self._frames:
@@ -212,6 +238,12 @@ class Rosbag2Writer(rosbag2.Writer):
         storage = self.storage
         assert isinstance(storage, McapStorage)
         return storage.write_packed
+
+    def packed_batch_writer(self) -> PackedBatchWriter:
+        """MCAP: the storage's ``write_packed_batch``."""
+        storage = self.storage
+        assert isinstance(storage, McapStorage)
+        return storage.write_packed_batch
 
     def write_packed(self, data: bytes, layout: FrameLayout, stamp: int, action_stamp: int) -> None:
         """MCAP: append a packed frame (records framed by ``Framing("mcap", ...)``)."""

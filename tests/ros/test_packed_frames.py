@@ -32,22 +32,36 @@ class _Collect(BagSink):
 
 
 def _record(
-    path: Path, fmt: str, compression: str, packed: bool, chunk_bytes: int
+    path: Path,
+    fmt: str,
+    compression: str,
+    mode: str,
+    chunk_bytes: int,
+    collect: bool = False,
+    **env_kwargs: object,
 ) -> tuple[Path, list[Record]]:
-    env = gym.make("BubbleRob-v0", max_episode_steps=70)
+    """Record three episodes; ``mode``: "batched", "packed" (frame by frame) or "records"."""
+    env = gym.make("BubbleRob-v0", max_episode_steps=70, **env_kwargs)
     recorder = RosBagRecorder(env, path, format=fmt, compression=compression)
     sink = recorder._sink
+    fanout = recorder._fanout
     assert sink is not None and sink.framing() is not None
     writer = sink._writer  # type: ignore[attr-defined]
     if fmt == "ros1":
         writer.chunk_threshold = chunk_bytes
     else:
         writer.storage.CHUNK_SIZE = chunk_bytes
-    if not packed:  # the record-by-record path
+    if mode == "records":  # the record-by-record path
         sink.framing = lambda: None  # type: ignore[method-assign]
-        recorder._fanout._update_routes(sink.distro)
-    collect = _Collect(recorder.distro)
-    recorder._fanout.add_sink(collect)
+    fanout.batch_frames = {"batched": 7, "packed": 0, "records": 0}[mode]
+    fanout._update_routes(sink.distro)
+    assert (fanout._batch is not None) == (mode == "batched")
+    records: list[Record] = []
+    if collect:
+        collector = _Collect(recorder.distro)
+        fanout.add_sink(collector)
+        records = collector.records
+        assert fanout._batch is None  # a sink without framing turns batching off
     rng = np.random.default_rng(3)
     for episode in range(3):
         recorder.reset(seed=episode)
@@ -57,7 +71,15 @@ def _record(
             if terminated or truncated:
                 break
     recorder.close()
-    return recorder.bag_paths[0], collect.records
+    return recorder.bag_paths[0], records
+
+
+def _assert_same_bags(a: Path, b: Path, fmt: str) -> None:
+    if fmt == "ros1":
+        assert a.read_bytes() == b.read_bytes()
+    else:
+        for name in ("metadata.yaml", "bag.mcap"):
+            assert (a / name).read_bytes() == (b / name).read_bytes()
 
 
 @pytest.mark.parametrize(
@@ -65,16 +87,44 @@ def _record(
 )
 @pytest.mark.parametrize("chunk_bytes", [2**20, 20_000])
 def test_packed_frames_write_the_bytes_records_write(tmp_path, fmt, compression, chunk_bytes):
-    packed, packed_records = _record(tmp_path / "a" / "bag", fmt, compression, True, chunk_bytes)
-    plain, plain_records = _record(tmp_path / "b" / "bag", fmt, compression, False, chunk_bytes)
-    if fmt == "ros1":
-        assert packed.read_bytes() == plain.read_bytes()
-    else:
-        for name in ("metadata.yaml", "bag.mcap"):
-            assert (packed / name).read_bytes() == (plain / name).read_bytes()
+    packed, packed_records = _record(
+        tmp_path / "a" / "bag", fmt, compression, "packed", chunk_bytes, collect=True
+    )
+    plain, plain_records = _record(
+        tmp_path / "b" / "bag", fmt, compression, "records", chunk_bytes, collect=True
+    )
+    _assert_same_bags(packed, plain, fmt)
     # A sink that takes records beside a packing sink gets the same messages, sliced from the frame.
     assert packed_records == plain_records
     assert len(packed_records) > 100
+
+
+@pytest.mark.parametrize(
+    ("fmt", "compression"), [("mcap", "zstd"), ("mcap", "none"), ("ros1", "none"), ("ros1", "lz4")]
+)
+@pytest.mark.parametrize("chunk_bytes", [2**20, 20_000])
+def test_batched_frames_write_the_bytes_frame_by_frame_packing_writes(
+    tmp_path, fmt, compression, chunk_bytes
+):
+    # Batches of 7 frames; 20 kB chunks close inside batches: both split where frames would.
+    batched, _ = _record(tmp_path / "a" / "bag", fmt, compression, "batched", chunk_bytes)
+    packed, _ = _record(tmp_path / "b" / "bag", fmt, compression, "packed", chunk_bytes)
+    _assert_same_bags(batched, packed, fmt)
+
+
+@pytest.mark.parametrize(
+    "env_kwargs",
+    [
+        {"action_type": "twist"},
+        {"camera": True, "camera_width": 16, "camera_height": 12},
+        {"laser_num_rays": 0},
+    ],
+    ids=["twist", "camera", "no-laser"],
+)
+def test_batched_frames_match_frame_by_frame_for_every_observation_set(tmp_path, env_kwargs):
+    batched, _ = _record(tmp_path / "a" / "bag", "mcap", "none", "batched", 20_000, **env_kwargs)
+    packed, _ = _record(tmp_path / "b" / "bag", "mcap", "none", "packed", 20_000, **env_kwargs)
+    _assert_same_bags(batched, packed, "mcap")
 
 
 def test_framing_headers_name_their_log_time_slots():
