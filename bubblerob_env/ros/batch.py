@@ -52,12 +52,14 @@ class FrameBatch:
         self.capacity = capacity
         self._laser = specs.laser is not None
         self._camera = specs.camera is not None
-        self._rows: list[NDArray[np.float64]] = []
+        width = _SCAN + (specs.laser.num_rays if specs.laser is not None else 0)
+        self._rows = np.empty((capacity, width), dtype=np.float64)
+        self._count = 0
         self._scalars: list[tuple[Any, ...]] = []
         self._images: list[bytes] = []
 
     def __len__(self) -> int:
-        return len(self._rows)
+        return self._count
 
     def add(
         self,
@@ -72,34 +74,37 @@ class FrameBatch:
         truncated: bool,
     ) -> bool:
         """Copy one step's frame (the env may reuse its arrays); True once the batch is full."""
-        # Called every step: one concatenate copies every array (float32 values are exact in
-        # float64), a tuple keeps the scalars; the conversion waits for the whole batch.
+        # Called every step: one concatenate copies every array into the next row of the buffer
+        # (float32 values are exact in float64), a tuple keeps the scalars; the conversion waits
+        # for the whole batch.
         parts: tuple[Any, ...] = (
             info["position"], info["quaternion_wxyz"], info["body_twist"], info["wheel_command"],
             obs["proximity"], action,
         )  # fmt: skip
         if self._laser:
             parts += (obs["laser"],)
-        self._rows.append(np.concatenate(parts, dtype=np.float64))
+        np.concatenate(parts, out=self._rows[self._count])
+        self._count += 1
         self._scalars.append(
             (stamp_ns, seq, action_stamp_ns, reward, terminated, truncated,
              info["proximity_triggered"])
         )  # fmt: skip
         if self._camera:
             self._images.append(np.ascontiguousarray(obs["camera"], dtype=np.uint8).tobytes())
-        return len(self._rows) >= self.capacity
+        return self._count >= self.capacity
 
     def columns(self) -> dict[str, NDArray[Any]]:
         """Every value of every frame gathered so far, by value and log-time slot name; empties.
 
         Scalars are 1-D arrays; ``ranges``, ``image`` and ``action`` are 2-D arrays of their
-        serialised element type (``<f4``, ``u1``, ``<f8``), one row per frame.
+        serialised element type (``<f4``, ``u1``, ``<f8``), one row per frame. Some are views of
+        the batch's buffer: use them before the next :meth:`add`.
         """
-        rows = np.stack(self._rows)
+        rows = self._rows[: self._count]
         stamp, seq, action_stamp, reward, terminated, truncated, triggered = zip(
             *self._scalars, strict=True
         )
-        images, self._rows, self._scalars, self._images = self._images, [], [], []
+        images, self._count, self._scalars, self._images = self._images, 0, [], []
         stamps = np.array(stamp, dtype=np.int64)
         action_stamps = np.array(action_stamp, dtype=np.int64)
         specs = self.specs

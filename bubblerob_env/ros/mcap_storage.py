@@ -148,15 +148,18 @@ class McapStorage(McapWriter):
         """Compress and write the open chunk, its message indexes, and start a new chunk."""
         self.index_pending()
         chunk = self.chunk
-        raw = chunk.bio.getvalue()
-        compressed = self.compressor(raw)
         encoding = self.compression.encode()
-        head = struct.pack("<QQQI", chunk.message_start_time, chunk.message_end_time, len(raw), 0)
-        body = head + struct.pack("<I", len(encoding)) + encoding
-        body += struct.pack("<Q", len(compressed))
         chunk_start = self.bio.tell()
-        self.bio.write(struct.pack("<BQ", 0x06, len(body) + len(compressed)) + body)
-        self.bio.write(compressed)
+        with chunk.bio.getbuffer() as raw:  # no copy of the chunk (released before it goes)
+            compressed = self.compressor(raw)  # type: ignore[arg-type]
+            times = (chunk.message_start_time, chunk.message_end_time)
+            head = struct.pack("<QQQI", *times, len(raw), 0)
+            body = head + struct.pack("<I", len(encoding)) + encoding
+            body += struct.pack("<Q", len(compressed))
+            self.bio.write(struct.pack("<BQ", 0x06, len(body) + len(compressed)) + body)
+            self.bio.write(compressed)
+            raw_size, compressed_size = len(raw), len(compressed)
+            del compressed  # the raw view itself when uncompressed
         chunk_end = self.bio.tell()
 
         offsets = []
@@ -176,7 +179,7 @@ class McapStorage(McapWriter):
         )
         index += b"".join(struct.pack("<HQ", cid, offset) for cid, offset in offsets)
         index += struct.pack("<QI", self.bio.tell() - chunk_end, len(encoding)) + encoding
-        index += struct.pack("<QQ", len(compressed), len(raw))
+        index += struct.pack("<QQ", compressed_size, raw_size)
         chunk_index = BytesIO()  # rosbags writes it at close, sized by its position
         chunk_index.write(index)
         self.chunks.append(chunk_index)

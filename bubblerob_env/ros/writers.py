@@ -165,8 +165,11 @@ class Ros1Writer(rosbag1.Writer):
             header.set_string("compression", self.compression_format)
             header.set_uint32("size", size)
             header.write(self.bio, RecordType.CHUNK)
-            data = self.compressor(chunk.data.getvalue())
-            self.bio.write(struct.pack("<I", len(data)) + data)
+            with chunk.data.getbuffer() as raw:  # no copy of the chunk (released before close)
+                data = self.compressor(raw)  # type: ignore[arg-type]
+                self.bio.write(struct.pack("<I", len(data)))
+                self.bio.write(data)
+                del data  # the raw view itself when uncompressed
             for cid, items in chunk.connections.items():
                 entries = np.concatenate(list(index_entries(items)))
                 packed = np.empty((len(entries), 3), dtype="<u4")
