@@ -42,8 +42,10 @@ logged at the action's stamp use them prefixed with ``action_``."""
 class Framing:
     """The header a writer puts before each message record in a chunk, as ``struct`` items.
 
-    ``kind`` is ``"mcap"`` or ``"ros1"``; ``ids`` maps each topic to its channel (MCAP) or
-    connection (ROS 1) id. Two sinks with equal framings take the same packed bytes.
+    ``kind`` is ``"mcap"``, ``"ros1"`` or ``"raw"`` (no header: messages back to back, for
+    storages that keep each message apart, such as sqlite3); ``ids`` maps each topic to its
+    channel (MCAP), connection (ROS 1) or topic (sqlite3) id. Two sinks with equal framings take
+    the same packed bytes.
     """
 
     kind: str
@@ -62,6 +64,8 @@ class Framing:
                 ("I", 38), ("I", 4), ("4s", b"op=\x02"), ("I", 9), ("5s", b"conn="), ("I", cid),
                 ("I", 13), ("5s", b"time="), ("I", sec), ("I", nsec), ("I", size),
             ]  # fmt: skip
+        if self.kind == "raw":
+            return []
         raise ValueError(f"unknown framing {self.kind!r}")
 
 
@@ -76,6 +80,11 @@ class FrameLayout:
     offsets: tuple[int, ...]
     action: tuple[bool, ...]
     size: int
+
+    def spans(self) -> list[tuple[int, int, int, bool]]:
+        """``(channel, start, end, action)`` of each record: where it lies in the packed frame."""
+        ends = (*self.offsets[1:], self.size)
+        return list(zip(self.channels, self.offsets, ends, self.action, strict=True))
 
     @property
     def has_action(self) -> bool:

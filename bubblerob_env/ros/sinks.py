@@ -251,7 +251,8 @@ class _Rosbag2Sink(BagSink):
             self._writer.write_many(records, self._ids)
 
     def framing(self) -> Framing | None:
-        return Framing("mcap", tuple(self._ids.items())) if self.format == "mcap" else None
+        kind = "mcap" if self.format == "mcap" else "raw"  # sqlite3: one row per message
+        return Framing(kind, tuple(self._ids.items()))
 
     def write_packed(self, data: bytes, layout: FrameLayout, stamp_ns: int, action_ns: int) -> None:
         self._writer.write_packed(data, layout, stamp_ns, action_ns)

@@ -210,6 +210,35 @@ class _Sqlite3Storage(Sqlite3Writer):
         stamps = [stamp for _, stamp, _ in rows]
         return min(stamps), max(stamps)
 
+    def write_packed_batch(
+        self,
+        data: Any,
+        layout: FrameLayout,
+        stamps: NDArray[np.int64],
+        action_stamps: NDArray[np.int64],
+        counts: dict[int, int],
+    ) -> tuple[int, int]:
+        """Insert the messages of packed frames (``Framing("raw", ...)``); lowest, highest stamp."""
+        size = layout.size
+        spans = layout.spans()
+        view = memoryview(data).cast("B")
+        rows = []
+        for index, (stamp, action_stamp) in enumerate(
+            zip(stamps.tolist(), action_stamps.tolist(), strict=True)
+        ):
+            base = index * size
+            for cid, start, end, action in spans:
+                logged = action_stamp if action else stamp
+                rows.append((cid, logged, view[base + start : base + end]))
+        self.cursor.executemany(
+            "INSERT INTO messages (topic_id, timestamp, data) VALUES(?, ?, ?)", rows
+        )
+        for cid in layout.channels:
+            counts[cid] += len(stamps)
+        used = [stamps] if not all(layout.action) else []
+        used += [action_stamps] if layout.has_action else []
+        return min(int(s.min()) for s in used), max(int(s.max()) for s in used)
+
     def flush(self) -> None:
         self.conn.commit()
 
@@ -237,19 +266,33 @@ class Rosbag2Writer(rosbag2.Writer):
         self.max_timestamp = max(self.max_timestamp, high)
 
     def packed_writer(self) -> PackedWriter:
-        """MCAP: the storage's ``write_packed``, called directly (the index keeps the counts)."""
+        """The storage's ``write_packed`` (MCAP; the index keeps the counts), else a batch of 1."""
         storage = self.storage
-        assert isinstance(storage, McapStorage)
-        return storage.write_packed
+        if isinstance(storage, McapStorage):
+            return storage.write_packed
+        write_batch = self.packed_batch_writer()
+
+        def write(data: bytes, layout: FrameLayout, stamp: int, action_stamp: int) -> None:
+            write_batch(data, layout, np.array([stamp]), np.array([action_stamp]))
+
+        return write
 
     def packed_batch_writer(self) -> PackedBatchWriter:
-        """MCAP: the storage's ``write_packed_batch``."""
+        """The storage's ``write_packed_batch`` (sqlite3: keeping ``rosbags``' statistics)."""
         storage = self.storage
-        assert isinstance(storage, McapStorage)
-        return storage.write_packed_batch
+        if isinstance(storage, McapStorage):
+            return storage.write_packed_batch
+        assert isinstance(storage, _Sqlite3Storage)
+
+        def write(data: Any, layout: FrameLayout, stamps: Any, action_stamps: Any) -> None:
+            low, high = storage.write_packed_batch(data, layout, stamps, action_stamps, self.counts)
+            self.min_timestamp = min(self.min_timestamp, low)
+            self.max_timestamp = max(self.max_timestamp, high)
+
+        return write
 
     def write_packed(self, data: bytes, layout: FrameLayout, stamp: int, action_stamp: int) -> None:
-        """MCAP: append a packed frame (records framed by ``Framing("mcap", ...)``)."""
+        """Append a packed frame (records framed by ``Framing("mcap"|"raw", ...)``)."""
         self.packed_writer()(data, layout, stamp, action_stamp)
 
     def close(self) -> None:

@@ -49,7 +49,7 @@ def _record(
     writer = sink._writer  # type: ignore[attr-defined]
     if fmt == "ros1":
         writer.chunk_threshold = chunk_bytes
-    else:
+    elif fmt == "mcap":
         writer.storage.CHUNK_SIZE = chunk_bytes
     if mode == "records":  # the record-by-record path
         sink.framing = lambda: None  # type: ignore[method-assign]
@@ -78,12 +78,13 @@ def _assert_same_bags(a: Path, b: Path, fmt: str) -> None:
     if fmt == "ros1":
         assert a.read_bytes() == b.read_bytes()
     else:
-        for name in ("metadata.yaml", "bag.mcap"):
+        for name in ("metadata.yaml", "bag.mcap" if fmt == "mcap" else "bag.db3"):
             assert (a / name).read_bytes() == (b / name).read_bytes()
 
 
 @pytest.mark.parametrize(
-    ("fmt", "compression"), [("mcap", "zstd"), ("mcap", "none"), ("ros1", "none"), ("ros1", "lz4")]
+    ("fmt", "compression"),
+    [("mcap", "zstd"), ("mcap", "none"), ("sqlite3", "none"), ("ros1", "none"), ("ros1", "lz4")],
 )
 @pytest.mark.parametrize("chunk_bytes", [2**20, 20_000])
 def test_packed_frames_write_the_bytes_records_write(tmp_path, fmt, compression, chunk_bytes):
@@ -100,7 +101,8 @@ def test_packed_frames_write_the_bytes_records_write(tmp_path, fmt, compression,
 
 
 @pytest.mark.parametrize(
-    ("fmt", "compression"), [("mcap", "zstd"), ("mcap", "none"), ("ros1", "none"), ("ros1", "lz4")]
+    ("fmt", "compression"),
+    [("mcap", "zstd"), ("mcap", "none"), ("sqlite3", "none"), ("ros1", "none"), ("ros1", "lz4")],
 )
 @pytest.mark.parametrize("chunk_bytes", [2**20, 20_000])
 def test_batched_frames_write_the_bytes_frame_by_frame_packing_writes(
