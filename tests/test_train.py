@@ -99,3 +99,27 @@ def test_hyperparameters_are_plain_data_for_every_algo():
 def test_unknown_env_id_names_the_known_ones():
     with pytest.raises(ValueError, match=r"no ppo hyperparameters for 'Nope-v0'.*BubbleRob-v0"):
         load_hyperparams("ppo", "Nope-v0")
+
+
+def test_best_model_is_the_safest_then_the_highest_return(tmp_path):
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.callbacks import EvalCallback
+    from stable_baselines3.common.env_util import make_vec_env
+
+    from train.train import keep_best_model
+
+    envs = make_vec_env("BubbleRob-v0", n_envs=1, seed=0)
+    model = PPO("MultiInputPolicy", envs, n_steps=64, batch_size=64, seed=0, device="cpu")
+    keep = keep_best_model(tmp_path)
+    evaluation = EvalCallback(envs, callback_after_eval=keep)
+    evaluation.init_callback(model)
+    best = tmp_path / "best_model.zip"
+    saved = []
+    # (successful episodes out of 10, mean return) of successive evaluations: success comes first
+    for successes, mean_return in [(9, 50.0), (8, 500.0), (10, 20.0), (10, 10.0), (10, 30.0)]:
+        evaluation.evaluations_successes.append([True] * successes + [False] * (10 - successes))
+        evaluation.last_mean_reward = mean_return
+        keep.on_step()
+        saved.append(best.exists())
+        best.unlink(missing_ok=True)
+    assert saved == [True, False, True, False, True]

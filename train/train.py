@@ -24,7 +24,15 @@ import yaml
 
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
 
-__all__ = ["ALGOS", "SuccessInfo", "load_hyperparams", "main", "train"]
+__all__ = [
+    "ALGOS",
+    "SuccessInfo",
+    "evaluation_score",
+    "keep_best_model",
+    "load_hyperparams",
+    "main",
+    "train",
+]
 
 ALGOS = ("ppo", "sac")
 HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
@@ -86,6 +94,44 @@ def _versions() -> dict[str, str]:
     return found
 
 
+def evaluation_score(successes: Sequence[Any], mean_return: float) -> tuple[float, float]:
+    """How a run ranks its evaluations: success rate of the latest one first, then mean return.
+
+    ``successes`` is SB3's ``EvalCallback.evaluations_successes`` (one list per evaluation).
+    """
+    return (float(np.mean(successes[-1])) if len(successes) else 0.0, float(mean_return))
+
+
+def keep_best_model(out: Path) -> Any:
+    """An SB3 callback for ``EvalCallback(callback_after_eval=...)`` that keeps the safest model.
+
+    After each evaluation it saves ``out/best_model.zip`` (and its VecNormalize statistics) when
+    :func:`evaluation_score` beats every earlier one. SB3's own ``best_model`` is the highest mean
+    return, so a fast policy that crashes in one evaluation episode out of ten would beat a safe
+    one; here success comes first.
+    """
+    from stable_baselines3.common.callbacks import BaseCallback, EvalCallback
+
+    class KeepBestModel(BaseCallback):
+        best: tuple[float, float] = (-float("inf"), -float("inf"))
+
+        def _on_step(self) -> bool:
+            evaluation = self.parent
+            assert isinstance(evaluation, EvalCallback)
+            score = evaluation_score(
+                evaluation.evaluations_successes, evaluation.last_mean_reward
+            )
+            if score > self.best:
+                self.best = score
+                self.model.save(out / "best_model")
+                normalizer = self.model.get_vec_normalize_env()
+                if normalizer is not None:
+                    normalizer.save(str(out / f"best_model{NORMALIZATION_SUFFIX}"))
+            return True
+
+    return KeepBestModel()
+
+
 def train(
     algo: str,
     env_id: str,
@@ -105,32 +151,9 @@ def train(
     """
     import torch
     from stable_baselines3 import PPO, SAC
-    from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback, EvalCallback
+    from stable_baselines3.common.callbacks import CheckpointCallback, EvalCallback
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
-
-    class KeepBestModel(BaseCallback):
-        """After each evaluation, keeps the safest model: highest success rate, then return.
-
-        SB3's own ``best_model`` is the highest mean return; here a fast policy that crashes in
-        one evaluation episode out of ten would beat a safe one, so success comes first.
-        """
-
-        best: tuple[float, float] = (-float("inf"), -float("inf"))
-
-        def _on_step(self) -> bool:
-            evaluation = self.parent
-            assert isinstance(evaluation, EvalCallback)
-            successes = evaluation.evaluations_successes
-            score = (float(np.mean(successes[-1])) if successes else 0.0,
-                     float(evaluation.last_mean_reward))
-            if score > self.best:
-                self.best = score
-                self.model.save(out / "best_model")
-                normalizer = self.model.get_vec_normalize_env()
-                if normalizer is not None:
-                    normalizer.save(str(out / f"best_model{NORMALIZATION_SUFFIX}"))
-            return True
 
     config = load_hyperparams(algo, env_id)
     config.update(overrides or {})
@@ -191,7 +214,7 @@ def train(
             eval_env,
             n_eval_episodes=eval_episodes,
             eval_freq=max(1, eval_freq // count),
-            callback_after_eval=KeepBestModel(),
+            callback_after_eval=keep_best_model(out),
             log_path=str(out),
             deterministic=True,
             verbose=0,
