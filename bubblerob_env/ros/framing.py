@@ -10,9 +10,9 @@ frame starts. Writers index packed frames when their chunk closes, with numpy
 from __future__ import annotations
 
 from collections import defaultdict
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
 from numpy.typing import NDArray
@@ -25,7 +25,7 @@ __all__ = [
     "FrameLayout",
     "Framing",
     "Record",
-    "frames_before_full",
+    "append_batch",
     "index_entries",
     "index_frames",
 ]
@@ -141,13 +141,32 @@ def index_frames(frames: list[Frame], index: Index) -> tuple[int, int, dict[int,
     return low, high, counts
 
 
-def frames_before_full(pos: int, size: int, threshold: int) -> int:
-    """How many ``size``-byte frames to append at ``pos`` before a chunk exceeds ``threshold``.
+def append_batch(
+    frames: list[Frame],
+    chunk: Callable[[], BinaryIO],
+    close_chunk: Callable[[], None],
+    threshold: int,
+    batch: tuple[Any, FrameLayout, NDArray[np.int64], NDArray[np.int64]],
+) -> None:
+    """Append a batch of packed frames to a writer's open chunks, noting them in ``frames``.
 
-    Frame by frame, writers close the chunk right after the first frame that ends beyond the
-    threshold; a batch is split at the same frame, so that both give the same chunks.
+    ``batch`` is ``(data, layout, stamps, action_stamps)``: ``len(stamps)`` frames back to back
+    in the bytes-like ``data``. ``chunk()`` is the open chunk's buffer; ``close_chunk()`` writes
+    it (indexing and clearing ``frames``) and opens the next. Frame by frame, writers close the
+    chunk right after the first frame that ends beyond ``threshold``; the batch is split at the
+    same frames, so that both give the same chunks.
     """
-    return max(1, (threshold - pos) // size + 1)
+    data, layout, stamps, action_stamps = batch
+    size, view, done = layout.size, memoryview(data).cast("B"), 0
+    while done < len(stamps):
+        buffer = chunk()
+        pos = buffer.tell()
+        end = done + min(len(stamps) - done, max(1, (threshold - pos) // size + 1))
+        frames.append((layout, pos, stamps[done:end], action_stamps[done:end]))
+        buffer.write(view[done * size : end * size])
+        if pos + (end - done) * size > threshold:
+            close_chunk()
+        done = end
 
 
 def index_entries(items: list[Any]) -> Iterator[NDArray[np.int64]]:

@@ -25,7 +25,7 @@ from bubblerob_env.ros.framing import (
     Frame,
     FrameLayout,
     Record,
-    frames_before_full,
+    append_batch,
     index_entries,
     index_frames,
 )
@@ -81,27 +81,17 @@ class McapStorage(McapWriter):
     ) -> None:
         """Append ``len(stamps)`` packed frames, back to back in ``data`` (a bytes-like object).
 
-        The chunks close where they would frame by frame (:func:`frames_before_full`).
+        The chunks close where they would frame by frame (:func:`append_batch`).
         """
-        size, count, done = layout.size, len(stamps), 0
-        view = memoryview(data).cast("B")
-        while done < count:
-            bio = self.chunk.bio
-            pos = bio.tell()
-            take = min(count - done, frames_before_full(pos, size, self.CHUNK_SIZE))
-            end = done + take
-            self._frames.append((layout, pos, stamps[done:end], action_stamps[done:end]))
-            bio.write(view[done * size : end * size])
-            done = end
-            if pos + take * size > self.CHUNK_SIZE:
-                self.close_chunk()
+        batch = (data, layout, stamps, action_stamps)
+        append_batch(self._frames, lambda: self.chunk.bio, self.close_chunk, self.CHUNK_SIZE, batch)
 
     def index_pending(self) -> None:
         """Index the packed frames written so far and count their messages."""
         if self._frames:
             chunk = self.chunk
             low, high, counts = index_frames(self._frames, chunk.msgs)  # type: ignore[arg-type]
-            self._frames = []
+            self._frames.clear()  # in place: append_batch holds the list
             for cid, count in counts.items():
                 self.channel_stats[cid] += count
                 self.counts[cid] += count

@@ -33,7 +33,7 @@ from bubblerob_env.ros.framing import (
     FrameLayout,
     Framing,
     Record,
-    frames_before_full,
+    append_batch,
     index_entries,
     index_frames,
 )
@@ -105,25 +105,20 @@ class Ros1Writer(rosbag1.Writer):
     ) -> None:
         """Append ``len(stamps)`` packed frames, back to back in ``data`` (a bytes-like object).
 
-        The chunks close where they would frame by frame (:func:`frames_before_full`).
+        The chunks close where they would frame by frame (:func:`append_batch`).
         """
-        size, count, done = layout.size, len(stamps), 0
-        view = memoryview(data).cast("B")
-        while done < count:
-            chunk = self.chunks[-1]
-            pos = chunk.data.tell()
-            take = min(count - done, frames_before_full(pos, size, self.chunk_threshold))
-            end = done + take
-            self._frames.append((layout, pos, stamps[done:end], action_stamps[done:end]))
-            chunk.data.write(view[done * size : end * size])
-            done = end
-            if chunk.data.tell() > self.chunk_threshold:
-                self.write_chunk(chunk)
+        append_batch(
+            self._frames,
+            lambda: self.chunks[-1].data,
+            lambda: self.write_chunk(self.chunks[-1]),
+            self.chunk_threshold,
+            (data, layout, stamps, action_stamps),
+        )
 
     def _index_pending(self, chunk: WriteChunk) -> None:
         if self._frames:
             low, high, _ = index_frames(self._frames, chunk.connections)
-            self._frames = []
+            self._frames.clear()  # in place: append_batch holds the list
             chunk.start, chunk.end = min(chunk.start, low), max(chunk.end, high)
 
     def write_many(self, records: Sequence[Record], ids: dict[str, int]) -> None:
