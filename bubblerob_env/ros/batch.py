@@ -73,24 +73,33 @@ class FrameBatch:
         terminated: bool,
         truncated: bool,
     ) -> bool:
-        """Copy one step's frame (the env may reuse its arrays); True once the batch is full."""
+        """Copy one step's frame (the env may reuse its arrays); True once the batch is full.
+
+        All or nothing: a frame that ``frame_args`` would reject (a missing key, a reward that is
+        not a number) raises here, at its step, and leaves the batch as it was.
+        """
         # Called every step: one concatenate copies every array into the next row of the buffer
-        # (float32 values are exact in float64), a tuple keeps the scalars; the conversion waits
-        # for the whole batch.
+        # (float32 values are exact in float64; "unsafe" casts the action as the env's own
+        # np.asarray(action, float64) does), a tuple keeps the scalars; the conversion waits for
+        # the whole batch.
+        scalars = (
+            stamp_ns, seq, action_stamp_ns, float(reward), bool(terminated), bool(truncated),
+            bool(info["proximity_triggered"]),
+        )  # fmt: skip
+        image = None
+        if self._camera:
+            image = np.ascontiguousarray(obs["camera"], dtype=np.uint8).tobytes()
         parts: tuple[Any, ...] = (
             info["position"], info["quaternion_wxyz"], info["body_twist"], info["wheel_command"],
             obs["proximity"], action,
         )  # fmt: skip
         if self._laser:
             parts += (obs["laser"],)
-        np.concatenate(parts, out=self._rows[self._count])
-        self._count += 1
-        self._scalars.append(
-            (stamp_ns, seq, action_stamp_ns, reward, terminated, truncated,
-             info["proximity_triggered"])
-        )  # fmt: skip
-        if self._camera:
-            self._images.append(np.ascontiguousarray(obs["camera"], dtype=np.uint8).tobytes())
+        np.concatenate(parts, out=self._rows[self._count], casting="unsafe")
+        self._count += 1  # the frame is complete: only now does the batch hold it
+        self._scalars.append(scalars)
+        if image is not None:
+            self._images.append(image)
         return self._count >= self.capacity
 
     def columns(self) -> dict[str, NDArray[Any]]:

@@ -8,6 +8,7 @@ across the episodes of a bag. With ``per_episode=True`` each episode gets its ow
 from __future__ import annotations
 
 import json
+import shutil
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -75,7 +76,9 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
 
     The bag is created when the wrapper is (so a bad path fails before the first step) and
     finished by :meth:`close`, or, if the program dies of an exception, Ctrl-C or SIGTERM first,
-    by :mod:`~bubblerob_env.ros.safety`; either way it holds every completed step.
+    by :mod:`~bubblerob_env.ros.safety`; either way it holds every completed step. A recorder
+    closed before its first ``reset`` removes its empty bag: ``AsyncVectorEnv`` makes and closes
+    one env only to read the spaces, and its worker must be able to create the same bag.
 
     Example:
         >>> env = RosBagRecorder(gym.make("BubbleRob-v0"), "runs/demo", metadata={"policy": "me"})
@@ -166,13 +169,18 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
         if sink is None:
             return
         with safety.critical:
-            self._fanout.remove_sink(sink)
-            if self._episodes:  # kept small: ruamel.yaml dumps long strings slowly
-                summary = [{k: e[k] for k in _SUMMARY_KEYS} for e in self._episodes]
-                shared = {k: v for k, v in self._episodes[-1].items() if k not in _SHARED_KEYS}
-                sink.set_metadata(EPISODES_KEY, json.dumps(summary, sort_keys=True))
-                sink.set_metadata(RECORDING_KEY, json.dumps(shared, sort_keys=True))
-            sink.close()
+            try:
+                self._fanout.remove_sink(sink)  # writes the frames still batched
+            finally:  # whatever happened, finish the file: it holds every frame written
+                if self._episodes:  # kept small: ruamel.yaml dumps long strings slowly
+                    summary = [{k: e[k] for k in _SUMMARY_KEYS} for e in self._episodes]
+                    shared = {k: v for k, v in self._episodes[-1].items() if k not in _SHARED_KEYS}
+                    sink.set_metadata(EPISODES_KEY, json.dumps(summary, sort_keys=True))
+                    sink.set_metadata(RECORDING_KEY, json.dumps(shared, sort_keys=True))
+                sink.close()
+                if not self._episodes:  # closed before any reset: leave no empty bag behind
+                    _remove_bag(sink.path)
+                    self._bag_paths.remove(sink.path)
 
     def _finish(self) -> None:
         """Close the bag (atexit and signal paths); the env is left alone."""
@@ -247,6 +255,13 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
             self._finish()
         finally:
             super().close()
+
+
+def _remove_bag(path: Path) -> None:
+    if path.is_dir():
+        shutil.rmtree(path)
+    else:
+        path.unlink(missing_ok=True)
 
 
 def _version() -> str:

@@ -192,12 +192,17 @@ class MessageFanout:
         self._update_routes(sink.distro)  # compiles the packers now: errors before the first frame
 
     def remove_sink(self, sink: BagSink) -> None:
-        """Stop sending to ``sink`` (it is not closed), after writing the pending frames."""
-        self.flush()
-        self._sinks[sink.distro].remove(sink)
-        if not self._sinks[sink.distro]:
-            del self._sinks[sink.distro]
-        self._update_routes(sink.distro)
+        """Stop sending to ``sink`` (it is not closed), after writing the pending frames.
+
+        The sink is removed even if writing them fails (the error is raised after).
+        """
+        try:
+            self.flush()
+        finally:
+            self._sinks[sink.distro].remove(sink)
+            if not self._sinks[sink.distro]:
+                del self._sinks[sink.distro]
+            self._update_routes(sink.distro)
 
     def _update_routes(self, distro: str) -> None:
         """Plan the sends of ``distro`` for its current sinks (and their current framings)."""

@@ -105,6 +105,34 @@ def test_exception_inside_with_block_closes_the_bag(tmp_path):
     assert _frames(recorder.bag_paths[0]) == 7
 
 
+class _DropsInfoKey(gym.Wrapper):
+    """Step 5 returns an info without ``proximity_triggered``: a frame no bag can hold."""
+
+    def __init__(self, env: gym.Env) -> None:
+        super().__init__(env)
+        self.steps = 0
+
+    def step(self, action):
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        self.steps += 1
+        if self.steps == 5:
+            info = {k: v for k, v in info.items() if k != "proximity_triggered"}
+        return obs, reward, terminated, truncated, info
+
+
+@pytest.mark.parametrize("fmt", ["mcap", "ros1"])
+def test_a_bad_frame_raises_at_its_step_and_the_bag_keeps_the_steps_before(tmp_path, fmt):
+    # Frames are recorded in batches: a bad one must fail at once, not when the batch is written.
+    recorder = RosBagRecorder(_DropsInfoKey(gym.make("BubbleRob-v0")), tmp_path / "bag", format=fmt)
+    recorder.reset(seed=0)
+    for _ in range(4):
+        recorder.step(FORWARD)
+    with pytest.raises(KeyError, match="proximity_triggered"):
+        recorder.step(FORWARD)
+    recorder.close()
+    assert _frames(recorder.bag_paths[0]) == 4
+
+
 def test_signal_handlers_are_restored_after_close(tmp_path):
     before = signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGINT)
     recorder = RosBagRecorder(gym.make("BubbleRob-v0"), tmp_path / "bag")

@@ -234,3 +234,25 @@ def test_vector_env_records_one_bag_per_sub_env(tmp_path):
         seeds = [e["seed"] for e in summary.episodes]
         assert seeds[0] == 10 + i and len(seeds) == 2  # autoreset after 5 steps
         assert {t.name: t.count for t in summary.topics}["/cmd_vel"] == 6
+
+
+def test_async_vector_env_records_one_bag_per_sub_env(tmp_path):
+    # AsyncVectorEnv makes (and closes, unused) a first env to read the spaces: its bag must not
+    # stand in the way of the worker's.
+    fns = recorded_env_fns("BubbleRob-v0", 2, tmp_path / "vec", env_kwargs={"max_episode_steps": 5})
+    envs = gym.vector.AsyncVectorEnv(fns)
+    envs.reset(seed=10)
+    for _ in range(7):
+        envs.step(np.tile(FORWARD, (2, 1)))
+    envs.close()
+    for i in range(2):
+        summary = read_summary(tmp_path / "vec" / f"env_{i}")
+        assert [e["seed"] for e in summary.episodes][0] == 10 + i
+        assert {t.name: t.count for t in summary.topics}["/cmd_vel"] == 6
+
+
+def test_recorder_closed_before_any_reset_leaves_no_bag(tmp_path):
+    recorder = RosBagRecorder(gym.make("BubbleRob-v0"), tmp_path / "bag")
+    assert (tmp_path / "bag").is_dir()
+    recorder.close()
+    assert not (tmp_path / "bag").exists() and recorder.bag_paths == []
