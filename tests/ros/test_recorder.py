@@ -13,7 +13,7 @@ from ros_helpers import FORMAT_CASES, FORWARD, drive, read_all
 from bubblerob_env.ros import RosBagRecorder, Topics, recorded_env_fns
 from bubblerob_env.ros.bagread import read_summary
 from bubblerob_env.ros.convert import EnvSpecs, RosConverter
-from bubblerob_env.ros.sinks import BagPathError
+from bubblerob_env.ros.sinks import BagPathError, bag_path
 
 STEP_TOPICS = ("/cmd_vel", "/leftMotorSpeed", "/rightMotorSpeed", "/bubblerob/action", "/reward")
 
@@ -220,34 +220,26 @@ def test_unwritable_directory_raises_before_the_first_step(tmp_path):
         RosBagRecorder(gym.make("BubbleRob-v0"), tmp_path / "file" / "bag", format="sqlite3")
 
 
-def test_vector_env_records_one_bag_per_sub_env(tmp_path):
-    fns = recorded_env_fns(
-        "BubbleRob-v0", 2, tmp_path / "vec", env_kwargs={"max_episode_steps": 5}, format="ros1"
-    )
-    envs = gym.vector.SyncVectorEnv(fns)
-    envs.reset(seed=10)
-    for _ in range(7):
-        envs.step(np.tile(FORWARD, (2, 1)))
-    envs.close()
-    for i in range(2):
-        summary = read_summary(tmp_path / "vec" / f"env_{i}.bag")
-        seeds = [e["seed"] for e in summary.episodes]
-        assert seeds[0] == 10 + i and len(seeds) == 2  # autoreset after 5 steps
-        assert {t.name: t.count for t in summary.topics}["/cmd_vel"] == 6
-
-
-def test_async_vector_env_records_one_bag_per_sub_env(tmp_path):
+@pytest.mark.parametrize(
+    ("vector_env", "fmt"),
+    [(gym.vector.SyncVectorEnv, "ros1"), (gym.vector.AsyncVectorEnv, "mcap")],
+    ids=["sync-ros1", "async-mcap"],
+)
+def test_vector_env_records_one_bag_per_sub_env(tmp_path, vector_env, fmt):
     # AsyncVectorEnv makes (and closes, unused) a first env to read the spaces: its bag must not
     # stand in the way of the worker's.
-    fns = recorded_env_fns("BubbleRob-v0", 2, tmp_path / "vec", env_kwargs={"max_episode_steps": 5})
-    envs = gym.vector.AsyncVectorEnv(fns)
+    fns = recorded_env_fns(
+        "BubbleRob-v0", 2, tmp_path / "vec", env_kwargs={"max_episode_steps": 5}, format=fmt
+    )
+    envs = vector_env(fns)
     envs.reset(seed=10)
     for _ in range(7):
         envs.step(np.tile(FORWARD, (2, 1)))
     envs.close()
     for i in range(2):
-        summary = read_summary(tmp_path / "vec" / f"env_{i}")
-        assert [e["seed"] for e in summary.episodes][0] == 10 + i
+        summary = read_summary(bag_path(tmp_path / "vec" / f"env_{i}", fmt))
+        seeds = [e["seed"] for e in summary.episodes]
+        assert seeds[0] == 10 + i and len(seeds) == 2  # autoreset after 5 steps
         assert {t.name: t.count for t in summary.topics}["/cmd_vel"] == 6
 
 
