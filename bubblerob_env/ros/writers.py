@@ -17,7 +17,7 @@ import struct
 from collections import defaultdict
 from collections.abc import Callable, Sequence
 from io import BytesIO
-from typing import Any
+from typing import Any, BinaryIO
 
 import lz4.frame  # type: ignore[import-untyped]
 import numpy as np
@@ -76,8 +76,31 @@ def roslz4_compress(data: bytes) -> bytes:
     )
 
 
+_BAG_HEADER_POS = len(b"#ROSBAG V2.0\n")
+
+
+def _write_bag_header(bio: BinaryIO, index_pos: int, conn_count: int, chunk_count: int) -> None:
+    """The bag header record as ``rosbag`` writes it: fields and padding fill 4096 bytes.
+
+    ``rosbags`` makes the whole record 4096 bytes, 8 fewer: the first chunk starts at 4109, not
+    4117. Readers follow the lengths either way, but ``rosbag reindex`` rewrites the header in
+    place at rosbag's size, which overwrote the first 8 bytes of the first chunk.
+    """
+    header = Header()
+    header.set_uint64("index_pos", index_pos)
+    header.set_uint32("conn_count", conn_count)
+    header.set_uint32("chunk_count", chunk_count)
+    fields = header.write(bio, RecordType.BAGHEADER) - 4  # it returns the length field too
+    padding = 4096 - fields
+    bio.write(struct.pack("<I", padding) + b" " * padding)
+
+
 class Ros1Writer(rosbag1.Writer):
-    """``rosbags``' ROS 1 writer with a batch write into the open chunk, and roslz4-style LZ4."""
+    """``rosbags``' ROS 1 writer with batch writes, roslz4-style LZ4 and rosbag's header size.
+
+    The header size lets ``rosbag reindex`` repair a bag that was cut short (see
+    :func:`_write_bag_header`).
+    """
 
     _frames: list[Frame]
 
@@ -91,6 +114,35 @@ class Ros1Writer(rosbag1.Writer):
         """Create the bag file."""
         self._frames = []
         super().open()
+        assert self.bio is not None
+        self.bio.seek(_BAG_HEADER_POS)  # replace rosbags' header record: nothing follows it yet
+        _write_bag_header(self.bio, 0, 0, 0)
+
+    def close(self) -> None:
+        """``rosbags``' own, record for record, but for the bag header's size."""
+        assert self.bio is not None
+        for chunk in self.chunks:
+            if chunk.pos == -1:
+                self.write_chunk(chunk)
+        index_pos = self.bio.tell()
+        for connection in self.connections:
+            self.write_connection(connection, self.bio)
+        chunks = [chunk for chunk in self.chunks if chunk.pos != -1]
+        for chunk in chunks:
+            header = Header()
+            header.set_uint32("ver", 1)
+            header.set_uint64("chunk_pos", chunk.pos)
+            header.set_time("start_time", 0 if chunk.start == MAXSIZE else chunk.start)
+            header.set_time("end_time", chunk.end)
+            header.set_uint32("count", len(chunk.connections))
+            header.write(self.bio, RecordType.CHUNK_INFO)
+            self.bio.write(struct.pack("<I", len(chunk.connections) * 8))
+            for cid, items in chunk.connections.items():
+                self.bio.write(struct.pack("<II", cid, len(items)))
+        self.bio.seek(_BAG_HEADER_POS)
+        _write_bag_header(self.bio, index_pos, len(self.connections), len(chunks))
+        self.bio.close()
+        self.bio = None
 
     def write_packed(self, data: bytes, layout: FrameLayout, stamp: int, action_stamp: int) -> None:
         """Append a packed frame (records framed by ``Framing("ros1", ...)``) to the open chunk."""

@@ -3,13 +3,18 @@
 from __future__ import annotations
 
 import signal
+import sqlite3
 import subprocess
 import sys
 import textwrap
 
 import gymnasium as gym
+import numpy as np
 import pytest
-from ros_helpers import FORWARD, read_all
+from mcap.exceptions import EndOfFile
+from mcap.records import Channel, Message
+from mcap.stream_reader import StreamReader
+from ros_helpers import FORWARD, debian_env, read_all
 
 from bubblerob_env.ros import RosBagRecorder
 from bubblerob_env.ros.bagread import read_summary
@@ -51,7 +56,7 @@ def _frames(path):
     return steps
 
 
-def _run_child(tmp_path, fmt, mode, signum=None):
+def _run_child(tmp_path, fmt, mode, signum=None, at_step=60):
     script = tmp_path / "child.py"
     script.write_text(CHILD)
     bag = tmp_path / "bag"
@@ -65,13 +70,57 @@ def _run_child(tmp_path, fmt, mode, signum=None):
     assert child.stdout is not None
     for line in iter(child.stdout.readline, b""):  # a raw pipe reads no further than each line
         printed.append(int(line))
-        if signum is not None and printed[-1] == 60:
+        if signum is not None and printed[-1] == at_step:
             child.send_signal(signum)
             break
     out, err_bytes = child.communicate(timeout=60)
     err = err_bytes.decode()
     printed += [int(line) for line in out.split()]
     return child.returncode, printed[-1], err, bag
+
+
+def _episode_ends(steps: int) -> list[int]:
+    """Steps at which the child's episodes end (it is deterministic: same env, seed, action)."""
+    env = gym.make("BubbleRob-v0", max_episode_steps=40)
+    env.reset(seed=0)
+    ends = []
+    for step in range(1, steps + 1):
+        _, _, terminated, truncated, _ = env.step(np.array([0.6, 0.5], dtype=np.float32))
+        if terminated or truncated:
+            ends.append(step)
+            env.reset()
+    return ends
+
+
+def _cmd_vel_after_hard_kill(path, fmt: str) -> int:
+    """Steps a killed recording kept, read as a user would recover them (the index is missing)."""
+    if fmt == "mcap":  # no summary: read the records in order, as `mcap recover` does
+        topics: dict[int, str] = {}
+        count = 0
+        with open(next(path.glob("*.mcap")), "rb") as stream:
+            try:
+                for record in StreamReader(stream).records:  # chunks come decompressed
+                    if isinstance(record, Channel):
+                        topics[record.id] = record.topic
+                    elif isinstance(record, Message):
+                        count += topics[record.channel_id] == "/cmd_vel"
+            except EndOfFile:  # the file stops after the last flushed chunk
+                pass
+        return count
+    if fmt == "sqlite3":  # committed rows; metadata.yaml comes with close
+        with sqlite3.connect(next(path.glob("*.db3"))) as db:
+            query = "SELECT COUNT(*) FROM messages JOIN topics ON topic_id = topics.id"
+            return int(db.execute(query + " WHERE name = '/cmd_vel'").fetchone()[0])
+    result = subprocess.run(  # Debian's real `rosbag reindex`
+        ["/usr/bin/rosbag", "reindex", str(path)],
+        env=debian_env(),
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=120,
+    )
+    assert result.returncode == 0, result.stderr
+    return len(read_all(path)["/cmd_vel"])
 
 
 @pytest.mark.parametrize("fmt", ["mcap", "sqlite3", "ros1"])
@@ -93,6 +142,19 @@ def test_signal_leaves_a_bag_with_every_completed_step(tmp_path, fmt, signum):
     path = bag.with_suffix(".bag") if fmt == "ros1" else bag
     steps = _frames(path)
     assert last <= steps <= last + 1  # the step under way when the signal came is finished
+
+
+@pytest.mark.parametrize("fmt", ["mcap", "sqlite3", "ros1"])
+def test_hard_kill_loses_at_most_the_current_episode(tmp_path, fmt):
+    # SIGKILL cannot be caught: the bag keeps what was flushed at the end of each episode.
+    returncode, last, _, bag = _run_child(tmp_path, fmt, "loop", signal.SIGKILL, at_step=100)
+    assert returncode == -signal.SIGKILL
+    path = bag.with_suffix(".bag") if fmt == "ros1" else bag
+    ends = _episode_ends(last + 41)
+    kept = _cmd_vel_after_hard_kill(path, fmt)
+    # every episode that ended before the kill, or the one ending at the step it was printing
+    assert kept in (max(end for end in ends if end <= last), min(e for e in ends if e > last))
+    assert kept >= ends[1]
 
 
 def test_exception_inside_with_block_closes_the_bag(tmp_path):

@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import random
 import sqlite3
+import struct
 from pathlib import Path
 
 import lz4.frame
@@ -49,7 +50,38 @@ def test_ros1_batch_writes_are_byte_identical_to_rosbags(tmp_path, records, comp
                 writer.write_many([(TOPICS[cid], stamp, data)], {"/a": 0, "/b": 1})
         writer.close()
         files.append(path.read_bytes())
-    assert files[0] == files[1]
+    theirs, ours = files
+    # One deliberate difference: our bag header record is rosbag's size, 8 bytes longer, so the
+    # chunks start at 4117 (rosbag) instead of 4109 (rosbags) and their positions shift by 8.
+    assert ours[:13] == theirs[:13] and _chunk_positions(ours) == [
+        pos + 8 for pos in _chunk_positions(theirs)
+    ]
+    assert ours[4117 : _index_pos(ours)] == theirs[4109 : _index_pos(theirs)]  # every chunk
+    with rosbag1.Reader(tmp_path / "Ros1Writer" / "x.bag") as reader:
+        assert len(list(reader.messages())) == len(records)
+
+
+def _index_pos(bag: bytes) -> int:
+    return int(struct.unpack_from("<Q", bag, bag.index(b"index_pos=") + 10)[0])
+
+
+def _chunk_positions(bag: bytes) -> list[int]:
+    with_index = bag[_index_pos(bag) :]
+    return [
+        int(struct.unpack_from("<Q", with_index, at + len(b"chunk_pos="))[0])
+        for at in range(len(with_index))
+        if with_index.startswith(b"chunk_pos=", at)
+    ]
+
+
+def test_ros1_bag_header_is_the_size_rosbag_writes_so_reindex_can_rewrite_it(tmp_path):
+    path = tmp_path / "x.bag"
+    sink = open_bag(path, "ros1")
+    sink.close()
+    data = path.read_bytes()
+    (header_length,) = struct.unpack_from("<I", data, 13)
+    (padding,) = struct.unpack_from("<I", data, 17 + header_length)
+    assert header_length + padding == 4096  # rosbag's _FILE_HEADER_LENGTH: fields + padding
 
 
 @pytest.mark.parametrize(
