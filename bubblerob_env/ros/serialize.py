@@ -159,7 +159,8 @@ class MessageFanout:
     and handed to each sink's :meth:`~bubblerob_env.ros.sinks.BagSink.packed_batch_writer`. Every
     other write (records, a reset's frame, adding or removing a sink) and :meth:`flush` first
     writes the pending frames, so the bags hold the same bytes in the same order.
-    ``batch_frames=0`` sends every frame at once.
+    ``batch_frames=0`` sends every frame at once. Close a sink only after :meth:`remove_sink`
+    (or :meth:`flush`): until then its latest frames may still be in the batch.
     """
 
     def __init__(self, specs: EnvSpecs, topics: Topics, batch_frames: int = 256) -> None:
