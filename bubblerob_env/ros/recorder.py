@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 
 from bubblerob_env.ros import safety
 from bubblerob_env.ros.convert import EnvSpecs
+from bubblerob_env.ros.episodes import EpisodeStream
 from bubblerob_env.ros.serialize import MessageFanout
 from bubblerob_env.ros.sinks import DEFAULT_DISTRO, FORMATS, BagSink, bag_path, open_bag
 from bubblerob_env.ros.topics import Topics
@@ -133,9 +134,7 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
         self._fanout.serializer(self.distro)  # compile now: errors before the first step
         self._episodes: list[dict[str, Any]] = []
         self._episode_count = 0
-        self._seq = 0
-        self._offset_ns = 0
-        self._last_ns: int | None = None  # latest frame stamp in the current bag
+        self._stream = EpisodeStream(self._fanout, self._dt_ns)
         self._sink: BagSink | None = None
         self._closed = False
         self._bag_paths: list[Path] = []
@@ -162,7 +161,7 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
         self._fanout.add_sink(sink)
         self._sink = sink
         self._episodes = []
-        self._last_ns = None
+        self._stream.restart()  # each bag starts at time 0
 
     def _close_bag(self) -> None:
         sink, self._sink = self._sink, None
@@ -205,8 +204,7 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
             if seed is None:  # replay restores the generator instead of seeding it
                 rng_state = _jsonable(self.env.unwrapped.np_random.bit_generator.state)
             obs, info = self.env.reset(seed=seed, options=options)
-            start = 0 if self._last_ns is None else self._last_ns + self._dt_ns
-            self._offset_ns = start - round(float(info["sim_time"]) * 1e9)
+            start = self._stream.next_start()
             episode = {
                 "episode": self._episode_count,
                 "seed": seed,
@@ -214,7 +212,7 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
                 "options": _jsonable(options),
                 **env_metadata(self.env),
                 "start_time_ns": start,
-                "first_seq": self._seq,
+                "first_seq": self._stream.seq,
                 "dt": self._dt,
                 "distro": self.distro,
                 "format": self.format,
@@ -222,28 +220,18 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
                 "bubblerob_version": _version(),
                 **self.metadata,
             }
-            if self._last_ns is None:
-                self._fanout.write_records(lambda s: s.tf_static(start))
-            self._fanout.write_records(lambda s: [s.episode(episode, start)])
             self._episodes.append(episode)
             self._episode_count += 1
-            self._fanout.write_frame(obs, info, start, self._seq)
-            self._seq += 1
-            self._last_ns = start
+            self._stream.begin(obs, info, episode)
         return obs, info
 
     def step(self, action: NDArray[Any]) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         """Step the env and record the frame; the step is recorded whole or not at all."""
-        if self._last_ns is None or self._closed:
+        if self._stream.last_ns is None or self._closed:
             raise RuntimeError("call reset() before step() (and do not step a closed recorder)")
         with safety.critical:
             obs, reward, terminated, truncated, info = self.env.step(action)
-            stamp = self._offset_ns + round(float(info["sim_time"]) * 1e9)
-            self._fanout.write_frame(  # positional: called every step
-                obs, info, stamp, self._seq, action, self._last_ns, reward, terminated, truncated
-            )
-            self._seq += 1
-            self._last_ns = stamp
+            self._stream.step(obs, info, action, reward, terminated, truncated)
             if (terminated or truncated) and self._sink is not None:
                 self._fanout.flush()  # batched frames, then the sink's chunk: on disk
                 self._sink.flush()

@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bubblerob_env.ros.convert import EnvSpecs
+from bubblerob_env.ros.episodes import EpisodeStream
 from bubblerob_env.ros.live.backend import LiveBackend, load_backend
 from bubblerob_env.ros.live.sink import LiveSink
 from bubblerob_env.ros.recorder import env_metadata
@@ -67,17 +68,24 @@ class RosLivePublisher(gym.Wrapper[Any, Any, Any, Any]):
         self._extra = list(sinks)
         for sink in self._extra:
             self.fanout.add_sink(sink)
-        self.seq = 0
         self.episode = 0
-        self.stamp_ns: int | None = None
-        """Stamp of the latest frame (simulated nanoseconds since the first reset)."""
-        self._offset_ns = 0
+        self._stream = EpisodeStream(self.fanout, self._dt_ns)
         self._closed = False
 
     @property
     def dt_ns(self) -> int:
         """Simulated nanoseconds per step."""
         return self._dt_ns
+
+    @property
+    def seq(self) -> int:
+        """Sequence number of the next frame."""
+        return self._stream.seq
+
+    @property
+    def stamp_ns(self) -> int | None:
+        """Stamp of the latest frame (simulated nanoseconds since the first reset)."""
+        return self._stream.last_ns
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -86,8 +94,7 @@ class RosLivePublisher(gym.Wrapper[Any, Any, Any, Any]):
         if self._closed:
             raise RuntimeError("this RosLivePublisher is closed")
         obs, info = self.env.reset(seed=seed, options=options)
-        start = 0 if self.stamp_ns is None else self.stamp_ns + self._dt_ns
-        self._offset_ns = start - round(float(info["sim_time"]) * 1e9)
+        start = self._stream.next_start()
         episode = {
             "episode": self.episode,
             "seed": seed,
@@ -101,14 +108,8 @@ class RosLivePublisher(gym.Wrapper[Any, Any, Any, Any]):
             "topics": self.topics.to_dict(),
             **self.metadata,
         }
-        episode = json.loads(json.dumps(episode, default=str))
-        if self.stamp_ns is None:
-            self.fanout.write_records(lambda s: s.tf_static(start))
-        self.fanout.write_records(lambda s: [s.episode(episode, start)])
-        self.fanout.write_frame(obs, info, start, self.seq)
+        self._stream.begin(obs, info, json.loads(json.dumps(episode, default=str)))
         self.episode += 1
-        self.seq += 1
-        self.stamp_ns = start
         return obs, info
 
     def step(self, action: NDArray[Any]) -> tuple[Any, float, bool, bool, dict[str, Any]]:
@@ -116,20 +117,9 @@ class RosLivePublisher(gym.Wrapper[Any, Any, Any, Any]):
         if self.stamp_ns is None or self._closed:
             raise RuntimeError("call reset() before step() (and do not step a closed publisher)")
         obs, reward, terminated, truncated, info = self.env.step(action)
-        stamp = self._offset_ns + round(float(info["sim_time"]) * 1e9)
-        self.fanout.write_frame(
-            obs,
-            info,
-            stamp,
-            self.seq,
-            action=np.asarray(action),
-            action_stamp_ns=self.stamp_ns,
-            reward=float(reward),
-            terminated=bool(terminated),
-            truncated=bool(truncated),
+        self._stream.step(
+            obs, info, np.asarray(action), float(reward), bool(terminated), bool(truncated)
         )
-        self.seq += 1
-        self.stamp_ns = stamp
         return obs, float(reward), terminated, truncated, info
 
     def close(self) -> None:
