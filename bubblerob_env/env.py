@@ -25,6 +25,7 @@ from bubblerob_env.arena import (
 from bubblerob_env.kinematics import DiffDrive, yaw_from_quat
 from bubblerob_env.rendering import HumanViewer, OverheadRenderer
 from bubblerob_env.sensors import (
+    RADIATION_TYPES,
     CameraSensor,
     CameraSpec,
     Laser,
@@ -124,6 +125,7 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
         laser_noise_std: float = 0.0,
         proximity_range_max: float = 0.6,
         proximity_trigger_distance: float = 0.3,
+        proximity_radiation_type: str = "ULTRASOUND",
         camera: bool = False,
         camera_width: int | None = None,
         camera_height: int | None = None,
@@ -163,6 +165,9 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
             laser_noise_std: Standard deviation (m) of Gaussian noise on each hit.
             proximity_range_max: Range of the nose sensor (m).
             proximity_trigger_distance: Distance under which the nose sensor "triggers" (m).
+            proximity_radiation_type: ``"ULTRASOUND"`` (the seed's ``FrontUS``) or
+                ``"INFRARED"``: what ROS ``sensor_msgs/Range`` messages report; the sensing is the
+                same ray either way.
             camera: Add the forward camera to the observation (64x64 unless sized).
             camera_width: Image width in pixels; giving a size enables the camera.
             camera_height: Image height in pixels; giving a size enables the camera.
@@ -195,6 +200,7 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
                 f"valid ones are: {', '.join(valid)}"
             )
         _check_choice("action_type", action_type, ACTION_TYPES)
+        _check_choice("proximity_radiation_type", proximity_radiation_type, RADIATION_TYPES)
         _check_choice("render_mode", render_mode, (None, *self.metadata["render_modes"]))
         _check_positive("control_timestep", control_timestep)
         if not isinstance(physics_substeps, int) or physics_substeps < 1:
@@ -264,7 +270,11 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
                 scan_time=control_timestep,
             )
             self._laser = Laser(self.model, self.laser_spec)
-        self.proximity_spec = ProximitySpec(proximity_range_max, proximity_trigger_distance)
+        self.proximity_spec = ProximitySpec(
+            proximity_range_max,
+            proximity_trigger_distance,
+            radiation_type=proximity_radiation_type,
+        )
         self._proximity = ProximitySensor(self.model, self.proximity_spec)
         self.camera_spec = None
         self._camera = None

@@ -23,6 +23,7 @@ __all__ = [
     "LaserSpec",
     "ProximitySensor",
     "ProximitySpec",
+    "RADIATION_TYPES",
     "StaticTransform",
     "static_transforms",
 ]
@@ -92,13 +93,18 @@ class LaserSpec:
         return self.angle_min + self.angle_increment * np.arange(self.num_rays, dtype=np.float64)
 
 
+RADIATION_TYPES = ("ULTRASOUND", "INFRARED")
+"""``sensor_msgs/Range`` radiation types a :class:`ProximitySpec` can report."""
+
+
 @dataclass(frozen=True)
 class ProximitySpec:
     """The nose proximity sensor: one ray along +x of ``frame_id``, like the seed's ``FrontUS``.
 
     A reading is the distance to the nearest obstacle straight ahead, or ``range_max`` when nothing
     is within range. ``triggered`` (the seed's ``sensorTrigger``) is ``reading < trigger_distance``.
-    ``field_of_view`` is the cone the ROS ``sensor_msgs/Range`` message reports for it.
+    ``field_of_view`` and ``radiation_type`` (``"ULTRASOUND"``, like the seed's ultrasonic
+    ``FrontUS``, or ``"INFRARED"``) are what the ROS ``sensor_msgs/Range`` message reports for it.
     """
 
     range_max: float
@@ -106,8 +112,14 @@ class ProximitySpec:
     range_min: float = 0.0
     field_of_view: float = 0.05
     frame_id: str = names.PROXIMITY_SITE
+    radiation_type: str = "ULTRASOUND"
 
     def __post_init__(self) -> None:
+        if self.radiation_type not in RADIATION_TYPES:
+            raise ValueError(
+                f"proximity radiation_type must be one of {list(RADIATION_TYPES)}, "
+                f"got {self.radiation_type!r}"
+            )
         if not 0.0 <= self.range_min < self.range_max:
             raise ValueError(
                 "proximity needs 0 <= range_min < range_max, "

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 
+import gymnasium as gym
 import numpy as np
 import pytest
 
@@ -105,6 +106,14 @@ def test_proximity_measures_the_wall_ahead_and_triggers_when_close(wall_env_fact
 def test_proximity_spec_rejects_trigger_beyond_range():
     with pytest.raises(ValueError, match="trigger_distance"):
         ProximitySpec(range_max=0.5, trigger_distance=0.8)
+
+
+def test_proximity_radiation_type_must_be_one_ros_knows():
+    allowed = r"\['ULTRASOUND', 'INFRARED'\], got 'LIDAR'"
+    with pytest.raises(ValueError, match="proximity_radiation_type must be one of " + allowed):
+        gym.make("BubbleRob-v0", proximity_radiation_type="LIDAR")
+    with pytest.raises(ValueError, match="radiation_type must be one of " + allowed):
+        ProximitySpec(range_max=0.5, trigger_distance=0.3, radiation_type="LIDAR")
 
 
 def test_camera_is_off_by_default(wall_env_factory):

@@ -203,7 +203,7 @@ class RosConverter(FrameValues):
         spec = self.specs.proximity
         fields = {
             "header": self._header(v, spec.frame_id),
-            "radiation_type": _RADIATION[getattr(spec, "radiation_type", "ULTRASOUND")],
+            "radiation_type": _RADIATION[spec.radiation_type],
             "field_of_view": spec.field_of_view,
             "min_range": spec.range_min,
             "max_range": spec.range_max,

@@ -103,6 +103,18 @@ def test_range_has_variance_in_jazzy_only(frame):
     assert not hasattr(humble.message("proximity", humble.frame_values(obs, info, 0)), "variance")
 
 
+@pytest.mark.parametrize(("radiation", "expected"), [(None, 0), ("INFRARED", 1)])
+def test_range_reports_the_proximity_sensors_radiation_type(radiation, expected):
+    kwargs = {} if radiation is None else {"proximity_radiation_type": radiation}
+    env = gym.make("BubbleRob-v0", **kwargs)
+    obs, info = env.reset(seed=0)
+    converter = RosConverter(EnvSpecs.from_env(env), "jazzy")
+    message = converter.message("proximity", converter.frame_values(obs, info, 0))
+    types = converter.store.types["sensor_msgs/msg/Range"]
+    assert message.radiation_type == expected  # default: ULTRASOUND, the seed's FrontUS
+    assert expected == (types.INFRARED if radiation else types.ULTRASOUND)
+
+
 def test_noetic_headers_carry_seq_and_camera_info_uses_capital_matrices(frame):
     specs, obs, info = frame
     noetic = RosConverter(specs, "noetic")
