@@ -3,7 +3,9 @@
 - :mod:`~bubblerob_env.ros.topics`: topic names and presets.
 - :mod:`~bubblerob_env.ros.convert`: env frames -> ``rosbags`` messages (pure).
 - :mod:`~bubblerob_env.ros.encode`, :mod:`~bubblerob_env.ros.serialize`: fast serialisation,
-  once per distro, fanned out to sinks.
+  once per distro, fanned out to sinks; :mod:`~bubblerob_env.ros.batch`: bag frames converted and
+  packed many at a time.
+- :mod:`~bubblerob_env.ros.episodes`: episode frames stamped in simulated time.
 - :mod:`~bubblerob_env.ros.sinks`: ROS 1 ``.bag`` and ROS 2 MCAP / sqlite3 bag files.
 - :mod:`~bubblerob_env.ros.recorder`: the ``RosBagRecorder`` wrapper.
 - :mod:`~bubblerob_env.ros.bagread`, :mod:`~bubblerob_env.ros.replay`: reading bags back, replay.
@@ -15,6 +17,7 @@ from __future__ import annotations
 
 from bubblerob_env.ros.convert import EnvSpecs, RosConverter
 from bubblerob_env.ros.distros import DISTROS
+from bubblerob_env.ros.episodes import EpisodeStream
 from bubblerob_env.ros.live import LiveSink, RosLivePublisher, SimNode
 from bubblerob_env.ros.recorder import RosBagRecorder, recorded_env_fns
 from bubblerob_env.ros.serialize import FrameSerializer, MessageFanout
@@ -29,6 +32,7 @@ __all__ = [
     "BagPathError",
     "BagSink",
     "EnvSpecs",
+    "EpisodeStream",
     "FrameSerializer",
     "LiveSink",
     "MessageFanout",
