@@ -55,6 +55,13 @@ def debian_env() -> dict[str, str]:
     return {"PATH": "/usr/bin:/bin", "HOME": os.environ.get("HOME", "/tmp"), "LANG": "C.UTF-8"}
 
 
+def run_debian(*command: str) -> subprocess.CompletedProcess[str]:
+    """Run one of Debian's ROS tools (or /usr/bin/python3) in :func:`debian_env`; not checked."""
+    return subprocess.run(
+        list(command), env=debian_env(), capture_output=True, text=True, check=False, timeout=120
+    )
+
+
 DEBIAN_MSG_PACKAGES = {
     "std_msgs": "python3-std-msgs",
     "geometry_msgs": "python3-geometry-msgs",

@@ -14,7 +14,7 @@ import pytest
 from mcap.exceptions import EndOfFile
 from mcap.records import Channel, Message
 from mcap.stream_reader import StreamReader
-from ros_helpers import FORWARD, debian_env, read_all
+from ros_helpers import FORWARD, read_all, run_debian
 
 from bubblerob_env.ros import RosBagRecorder
 from bubblerob_env.ros.bagread import read_summary
@@ -111,14 +111,7 @@ def _cmd_vel_after_hard_kill(path, fmt: str) -> int:
         with sqlite3.connect(next(path.glob("*.db3"))) as db:
             query = "SELECT COUNT(*) FROM messages JOIN topics ON topic_id = topics.id"
             return int(db.execute(query + " WHERE name = '/cmd_vel'").fetchone()[0])
-    result = subprocess.run(  # Debian's real `rosbag reindex`
-        ["/usr/bin/rosbag", "reindex", str(path)],
-        env=debian_env(),
-        capture_output=True,
-        text=True,
-        check=False,
-        timeout=120,
-    )
+    result = run_debian("/usr/bin/rosbag", "reindex", str(path))  # Debian's real tool
     assert result.returncode == 0, result.stderr
     return len(read_all(path)["/cmd_vel"])
 

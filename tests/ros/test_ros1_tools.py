@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import json
-import subprocess
 import textwrap
 
 import pytest
-from ros_helpers import debian_env, missing_debian_ros, read_all
+from ros_helpers import missing_debian_ros, read_all, run_debian
 
 from bubblerob_env.ros import ros1_defs
 
@@ -40,14 +39,7 @@ READ_ALL = textwrap.dedent(
 @pytest.mark.parametrize("compression", ["none", "bz2", "lz4"])
 def test_rosbag_check_needs_no_migrations(record, compression):
     path = record("ros1", compression, episodes=2, steps=5, env_kwargs={"camera": True})
-    result = subprocess.run(
-        ["/usr/bin/rosbag", "check", str(path)],
-        env=debian_env(),
-        capture_output=True,
-        text=True,
-        check=False,
-        timeout=120,
-    )
+    result = run_debian("/usr/bin/rosbag", "check", str(path))
     assert result.returncode == 0, result.stderr
     assert "does not need any migrations" in result.stdout, result.stdout + result.stderr
 
@@ -57,14 +49,7 @@ def test_debian_rosbag_python_api_reads_every_message(record, tmp_path, compress
     path = record("ros1", compression, episodes=2, steps=5, env_kwargs={"camera": True})
     script = tmp_path / "read_all.py"
     script.write_text(READ_ALL)
-    result = subprocess.run(
-        ["/usr/bin/python3", str(script), str(path)],
-        env=debian_env(),
-        capture_output=True,
-        text=True,
-        check=False,
-        timeout=120,
-    )
+    result = run_debian("/usr/bin/python3", str(script), str(path))
     assert result.returncode == 0, result.stderr
     report = json.loads(result.stdout)
     ours = {topic: len(messages) for topic, messages in read_all(path).items()}
@@ -87,13 +72,8 @@ def test_vendored_definitions_are_debians():
         print(json.dumps(out))
         """
     )
-    result = subprocess.run(
-        ["/usr/bin/python3", "-c", script, json.dumps(list(ros1_defs.FULL_TEXT))],
-        env=debian_env(),
-        capture_output=True,
-        text=True,
-        check=True,
-    )
+    result = run_debian("/usr/bin/python3", "-c", script, json.dumps(list(ros1_defs.FULL_TEXT)))
+    assert result.returncode == 0, result.stderr
     debian = json.loads(result.stdout)
     for name, (text, md5sum) in debian.items():
         assert ros1_defs.FULL_TEXT[name] == text, name
