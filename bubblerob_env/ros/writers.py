@@ -1,10 +1,11 @@
-"""``rosbags``' bag writers with batch writes, byte for byte the files ``rosbags`` writes.
+"""``rosbags``' bag writers with batch writes, writing the files ``rosbags`` writes.
 
 Writing one message costs a ``rosbags`` writer a few microseconds; a recorder writes ~15 per env
 step. These subclasses take a whole frame at once straight into the open chunk (MCAP, ROS 1) or one
 ``executemany`` (sqlite3). With one message per batch the files are identical to ``rosbags``' own
-(``tests/ros/test_sinks.py`` checks). One deliberate difference: ROS 1 LZ4 chunks use the frame
-options Debian's ``roslz4`` requires.
+(``tests/ros/test_sinks.py`` checks), with two deliberate differences in ROS 1 bags: LZ4 chunks
+use the frame options Debian's ``roslz4`` requires, and the bag header record has rosbag's size
+(the first chunk starts 8 bytes later), so that ``rosbag reindex`` can rewrite it in place.
 
 Faster still, MCAP and ROS 1 take *packed frames* (:meth:`Ros1Writer.write_packed`,
 :meth:`Rosbag2Writer.write_packed`, see :mod:`~bubblerob_env.ros.framing`); the MCAP storage is

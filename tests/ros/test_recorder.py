@@ -163,6 +163,14 @@ def test_one_bag_per_episode(tmp_path):
         summary = read_summary(path)
         assert [e["episode"] for e in summary.episodes] == [i]
         assert summary.start_ns == 0
+        assert len(read_all(path)["/tf_static"]) == 1  # every bag starts with its own
+
+
+def test_tf_static_is_recorded_once_per_bag(record):
+    messages = read_all(record("mcap", episodes=3, steps=4))
+    assert len(messages["/bubblerob/episode"]) == 3
+    ((stamp, _),) = messages["/tf_static"]  # latched: once, before the first episode's frame
+    assert stamp == 0
 
 
 def test_custom_topic_names_and_namespace(tmp_path):
