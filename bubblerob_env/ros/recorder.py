@@ -8,7 +8,6 @@ across the episodes of a bag. With ``per_episode=True`` each episode gets its ow
 from __future__ import annotations
 
 import json
-import shutil
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -21,7 +20,14 @@ from bubblerob_env.ros import safety
 from bubblerob_env.ros.convert import EnvSpecs
 from bubblerob_env.ros.episodes import EpisodeStream
 from bubblerob_env.ros.serialize import MessageFanout
-from bubblerob_env.ros.sinks import DEFAULT_DISTRO, FORMATS, BagSink, bag_path, open_bag
+from bubblerob_env.ros.sinks import (
+    DEFAULT_DISTRO,
+    FORMATS,
+    BagSink,
+    bag_path,
+    open_bag,
+    remove_bag,
+)
 from bubblerob_env.ros.topics import Topics
 
 __all__ = [
@@ -178,7 +184,7 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
                     sink.set_metadata(RECORDING_KEY, json.dumps(shared, sort_keys=True))
                 sink.close()
                 if not self._episodes:  # closed before any reset: leave no empty bag behind
-                    _remove_bag(sink.path)
+                    remove_bag(sink.path)
                     self._bag_paths.remove(sink.path)
 
     def _finish(self) -> None:
@@ -243,13 +249,6 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
             self._finish()
         finally:
             super().close()
-
-
-def _remove_bag(path: Path) -> None:
-    if path.is_dir():
-        shutil.rmtree(path)
-    else:
-        path.unlink(missing_ok=True)
 
 
 def _version() -> str:

@@ -311,10 +311,10 @@ class MessageFanout:
         convert = self._convert
         if convert is None:
             return
+        action_stamp = stamp_ns if action_stamp_ns is None else action_stamp_ns
         batch = self._batch
         if batch is not None:
             if action is not None:
-                action_stamp = stamp_ns if action_stamp_ns is None else action_stamp_ns
                 full = batch.add(
                     obs, info, stamp_ns, seq, action, action_stamp, reward, terminated, truncated
                 )
@@ -323,7 +323,6 @@ class MessageFanout:
                 return
             self.flush()
         args = convert(obs, info, stamp_ns, seq, action, reward, terminated, truncated)
-        action_stamp = stamp_ns if action_stamp_ns is None else action_stamp_ns
         for send in self._plan[action is not None]:
             send(args, stamp_ns, action_stamp)
 

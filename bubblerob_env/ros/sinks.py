@@ -52,6 +52,7 @@ __all__ = [
     "Record",
     "bag_path",
     "open_bag",
+    "remove_bag",
 ]
 
 FORMATS = ("mcap", "sqlite3", "ros1")
@@ -82,6 +83,14 @@ def bag_path(path: str | Path, fmt: str) -> Path:
     return path
 
 
+def remove_bag(path: Path) -> None:
+    """Delete a bag: a ROS 2 bag directory with its files, or a ROS 1 file (or a link)."""
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path)
+    else:
+        path.unlink(missing_ok=True)
+
+
 def _prepare(path: Path, overwrite: bool) -> None:
     """Refuse or clear an existing bag, and make sure the parent directory is writable."""
     if path.exists() or path.is_symlink():
@@ -100,9 +109,7 @@ def _prepare(path: Path, overwrite: bool) -> None:
                     f"not overwriting {path}: it is a directory with files that are not part of "
                     f"a bag ({', '.join(sorted(unknown)[:5])})"
                 )
-            shutil.rmtree(path)
-        else:
-            path.unlink()
+        remove_bag(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
     except OSError as error:

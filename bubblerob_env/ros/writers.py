@@ -77,6 +77,8 @@ def roslz4_compress(data: bytes) -> bytes:
     )
 
 
+_INSERT_MESSAGE = "INSERT INTO messages (topic_id, timestamp, data) VALUES(?, ?, ?)"
+"""rosbags' sqlite3 insert of one message row."""
 _BAG_HEADER_POS = len(b"#ROSBAG V2.0\n")
 
 
@@ -250,9 +252,7 @@ class _Sqlite3Storage(Sqlite3Writer):
     ) -> tuple[int, int]:
         """Insert ``(topic, stamp, data)`` records; returns their lowest and highest stamps."""
         rows = [(ids[topic], stamp, payload) for topic, stamp, payload in records]
-        self.cursor.executemany(
-            "INSERT INTO messages (topic_id, timestamp, data) VALUES(?, ?, ?)", rows
-        )
+        self.cursor.executemany(_INSERT_MESSAGE, rows)
         for cid, _, _ in rows:
             counts[cid] += 1
         stamps = [stamp for _, stamp, _ in rows]
@@ -278,9 +278,7 @@ class _Sqlite3Storage(Sqlite3Writer):
             for cid, start, end, action in spans:
                 logged = action_stamp if action else stamp
                 rows.append((cid, logged, view[base + start : base + end]))
-        self.cursor.executemany(
-            "INSERT INTO messages (topic_id, timestamp, data) VALUES(?, ?, ?)", rows
-        )
+        self.cursor.executemany(_INSERT_MESSAGE, rows)
         for cid in layout.channels:
             counts[cid] += len(stamps)
         used = [stamps] if not all(layout.action) else []
