@@ -1,8 +1,17 @@
 """Scene building and the seeded arena layout: obstacle slots, random obstacles, a free start pose.
 
-The model is compiled once per env. Every reset draws a new layout and writes it into the model's
-geom arrays (position, size, orientation, bounding volumes) of pre-allocated obstacle slots, so a
-reset never recompiles and renderers keep working on the same model.
+The model is compiled once per env. Every reset draws a new layout and writes it into
+pre-allocated obstacle slots, so a reset never recompiles and renderers keep working on the same
+model. Each slot is a mocap body holding one geom: the pose goes into ``data.mocap_pos`` /
+``mocap_quat`` and the size into the model's geom and bounding-volume arrays.
+
+Why one body per slot: MuJoCo's midphase keeps a bounding-volume hierarchy (BVH) per body, built
+in the body's frame when the model is compiled. The slots used to be geoms of the world body,
+compiled parked at z=-10 and moved at reset by writing ``model.geom_pos``; the world body's BVH
+still held the parked boxes, so the midphase discarded most robot-obstacle pairs before the
+narrowphase ever saw them, and 17 of the 20 slots let the robot drive through (all 20 collided
+with ``mjDSBL_MIDPHASE``). A body with one geom has a one-node BVH centred on the body, which stays
+right wherever the body moves; only a size change has to be written into it.
 """
 
 from __future__ import annotations
@@ -98,12 +107,14 @@ def build_model(
             (names.CYLINDER_SLOT_PREFIX, mujoco.mjtGeom.mjGEOM_CYLINDER),
             (names.BOX_SLOT_PREFIX, mujoco.mjtGeom.mjGEOM_BOX),
         ):
-            spec.worldbody.add_geom(
+            body = spec.worldbody.add_body(
+                name=f"{prefix}{i}", mocap=True, pos=[0.0, 0.0, _PARKED_Z]
+            )
+            body.add_geom(
                 default=obstacle_class,
                 name=f"{prefix}{i}",
                 type=geom_type,
                 size=[0.1, 0.1, OBSTACLE_HEIGHT / 2],
-                pos=[0.0, 0.0, _PARKED_Z],
             )
     return spec.compile(), has_arena
 
@@ -112,30 +123,46 @@ class ObstacleSlots:
     """Writes layouts into the obstacle slots of a model built by :func:`build_model`."""
 
     def __init__(self, model: mujoco.MjModel, max_obstacles: int) -> None:
-        self._cylinders = [
-            model.geom(f"{names.CYLINDER_SLOT_PREFIX}{i}").id for i in range(max_obstacles)
-        ]
-        self._boxes = [model.geom(f"{names.BOX_SLOT_PREFIX}{i}").id for i in range(max_obstacles)]
-        # A moved geom must not take the "same frame as its body" shortcut.
-        model.geom_sameframe[self._cylinders + self._boxes] = 0
+        self._free: dict[str, list[tuple[int, int, int]]] = {}
+        for kind, prefix in (
+            ("cylinder", names.CYLINDER_SLOT_PREFIX),
+            ("box", names.BOX_SLOT_PREFIX),
+        ):
+            slots = []
+            for i in range(max_obstacles):
+                body = model.body(f"{prefix}{i}")
+                slots.append(
+                    (
+                        model.geom(f"{prefix}{i}").id,
+                        int(model.body_mocapid[body.id]),
+                        int(model.body_bvhadr[body.id]),
+                    )
+                )
+            self._free[kind] = slots
 
     @property
     def geom_ids(self) -> list[int]:
         """Every slot's geom id."""
-        return self._cylinders + self._boxes
+        return [gid for slots in self._free.values() for gid, _, _ in slots]
 
-    def apply(self, model: mujoco.MjModel, obstacles: tuple[Obstacle, ...]) -> None:
-        """Place ``obstacles`` in the slots and park the unused slots below the floor."""
+    def apply(
+        self, model: mujoco.MjModel, data: mujoco.MjData, obstacles: tuple[Obstacle, ...]
+    ) -> None:
+        """Place ``obstacles`` in the slots and park the unused slots below the floor.
+
+        Call after ``mj_resetData`` (which moves mocap bodies back to their compiled pose) and
+        before ``mj_forward``.
+        """
         half_height = OBSTACLE_HEIGHT / 2
-        free = {"cylinder": iter(self._cylinders), "box": iter(self._boxes)}
+        free = {kind: iter(slots) for kind, slots in self._free.items()}
         used = []
+        quat = np.empty(4)
         for obstacle in obstacles:
-            gid = next(free[obstacle.kind])
+            gid, mocap, bvh = next(free[obstacle.kind])
             used.append(gid)
-            model.geom_pos[gid] = (obstacle.x, obstacle.y, half_height)
-            quat = np.empty(4)
+            data.mocap_pos[mocap] = (obstacle.x, obstacle.y, half_height)
             mujoco.mju_axisAngle2Quat(quat, np.array([0.0, 0.0, 1.0]), obstacle.yaw)
-            model.geom_quat[gid] = quat
+            data.mocap_quat[mocap] = quat
             if obstacle.kind == "cylinder":
                 half_extents = (obstacle.size[0], obstacle.size[0], half_height)
                 model.geom_size[gid] = (obstacle.size[0], half_height, 0.0)
@@ -144,9 +171,13 @@ class ObstacleSlots:
                 half_extents = (obstacle.size[0], obstacle.size[1], half_height)
                 model.geom_size[gid] = half_extents
                 model.geom_rbound[gid] = math.sqrt(sum(h * h for h in half_extents))
+            # The geom sits at its body's origin, so its box and the body's one BVH node agree.
             model.geom_aabb[gid] = (0.0, 0.0, 0.0, *half_extents)
+            model.bvh_aabb[bvh] = (0.0, 0.0, 0.0, *half_extents)
+        for slots in free.values():
+            for _, mocap, _ in slots:
+                data.mocap_pos[mocap] = (0.0, 0.0, _PARKED_Z)
         parked = sorted(set(self.geom_ids) - set(used))
-        model.geom_pos[parked] = (0.0, 0.0, _PARKED_Z)
         # Alpha 0 keeps parked slots out of every rendered scene (they cost ~40% of a camera
         # frame otherwise); rays test the obstacle material's alpha, so used slots stay visible.
         model.geom_rgba[used, 3] = 1.0

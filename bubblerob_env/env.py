@@ -348,8 +348,8 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
             self.start_clearance,
             self.start_pose,
         )
-        self._slots.apply(self.model, self.layout.obstacles)
         mujoco.mj_resetData(self.model, self.data)
+        self._slots.apply(self.model, self.data, self.layout.obstacles)
         x, y, yaw = self.layout.start_pose
         adr = self._root_qpos
         self.data.qpos[adr : adr + 3] = (x, y, self.model.body_pos[self._base][2])
