@@ -11,7 +11,7 @@ from bubblerob_env._headless import use_egl_without_display
 
 use_egl_without_display()
 
-from gymnasium.envs.registration import register  # noqa: E402
+from gymnasium.envs.registration import WrapperSpec, register  # noqa: E402
 
 from bubblerob_env.env import ACTION_TYPES, BubbleRobEnv  # noqa: E402
 from bubblerob_env.kinematics import DiffDrive  # noqa: E402
@@ -21,12 +21,14 @@ from bubblerob_env.sensors import (  # noqa: E402
     ProximitySpec,
     StaticTransform,
 )
+from bubblerob_env.wrappers import EpisodeSuccess  # noqa: E402
 
 __all__ = [
     "ACTION_TYPES",
     "BubbleRobEnv",
     "CameraSpec",
     "DiffDrive",
+    "EpisodeSuccess",
     "LaserSpec",
     "ProximitySpec",
     "StaticTransform",
@@ -37,4 +39,8 @@ register(
     id="BubbleRob-v0",
     entry_point="bubblerob_env.env:BubbleRobEnv",
     max_episode_steps=1000,
+    # After TimeLimit: sets info["is_success"] on every episode's last step.
+    additional_wrappers=(
+        WrapperSpec("EpisodeSuccess", "bubblerob_env.wrappers:EpisodeSuccess", {}),
+    ),
 )

@@ -22,6 +22,18 @@ from bubblerob_env.arena import (
     build_model,
     sample_layout,
 )
+from bubblerob_env.checks import (
+    MAX_OBSTACLES,
+    MAX_PHYSICS_TIMESTEP,
+    check_choice,
+    check_finite,
+    check_image_size,
+    check_int_range,
+    check_positive,
+    check_range_pair,
+    check_start_pose,
+    unexpected_kwargs_error,
+)
 from bubblerob_env.kinematics import DiffDrive, yaw_from_quat
 from bubblerob_env.rendering import HumanViewer, OverheadRenderer
 from bubblerob_env.sensors import (
@@ -41,6 +53,12 @@ __all__ = ["ACTION_TYPES", "BubbleRobEnv"]
 ACTION_TYPES = ("wheels", "twist")
 _DEFAULT_CAMERA_SIZE = 64
 _REWARD_PARTS = ("reward_forward", "reward_spin", "reward_clearance", "reward_collision")
+# MuJoCo resets the state itself after these: the episode cannot go on.
+_DIVERGENCE_WARNINGS = (
+    mujoco.mjtWarning.mjWARN_BADQACC,
+    mujoco.mjtWarning.mjWARN_BADQPOS,
+    mujoco.mjtWarning.mjWARN_BADQVEL,
+)
 
 
 class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
@@ -195,31 +213,37 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
                 for p in inspect.signature(BubbleRobEnv.__init__).parameters
                 if p not in ("self", "unknown_kwargs")
             ]
-            raise TypeError(
-                f"BubbleRobEnv got unknown keyword argument(s) {sorted(unknown_kwargs)}; "
-                f"valid ones are: {', '.join(valid)}"
-            )
-        _check_choice("action_type", action_type, ACTION_TYPES)
-        _check_choice("proximity_radiation_type", proximity_radiation_type, RADIATION_TYPES)
-        _check_choice("render_mode", render_mode, (None, *self.metadata["render_modes"]))
-        _check_positive("control_timestep", control_timestep)
-        if not isinstance(physics_substeps, int) or physics_substeps < 1:
-            raise ValueError(f"physics_substeps must be an int >= 1, got {physics_substeps!r}")
-        lo, hi = num_obstacles
-        if not 0 <= lo <= hi:
+            raise unexpected_kwargs_error("BubbleRobEnv.__init__", list(unknown_kwargs), valid)
+        check_choice("action_type", action_type, ACTION_TYPES)
+        check_choice("proximity_radiation_type", proximity_radiation_type, RADIATION_TYPES)
+        check_choice("render_mode", render_mode, (None, *self.metadata["render_modes"]))
+        check_positive("control_timestep", control_timestep)
+        check_int_range("physics_substeps", physics_substeps, 1)
+        if control_timestep / physics_substeps > MAX_PHYSICS_TIMESTEP:
             raise ValueError(
-                f"num_obstacles must be (min, max) with 0 <= min <= max, got {num_obstacles}"
+                f"control_timestep / physics_substeps = {control_timestep} / {physics_substeps} "
+                f"s is a physics step MuJoCo cannot integrate reliably here; it must be <= "
+                f"{MAX_PHYSICS_TIMESTEP} s: use physics_substeps >= "
+                f"{math.ceil(control_timestep / MAX_PHYSICS_TIMESTEP - 1e-9)}"
             )
-        if not 0 < obstacle_size[0] <= obstacle_size[1]:
-            raise ValueError(
-                f"obstacle_size must be (min, max) with 0 < min <= max, got {obstacle_size}"
-            )
-        if laser_num_rays < 0:
-            raise ValueError(
-                f"laser_num_rays must be >= 0 (0 disables the laser), got {laser_num_rays}"
-            )
+        lo, hi = check_range_pair("num_obstacles", num_obstacles, 0, MAX_OBSTACLES, ints=True)
+        obstacle_size = check_range_pair("obstacle_size", obstacle_size, 1e-3, math.inf, ints=False)
+        check_int_range("laser_num_rays", laser_num_rays, 0)
         for label, value in (("max_wheel_speed", max_wheel_speed), ("arena_size", arena_size)):
-            _check_positive(label, value)
+            check_positive(label, value)
+        for label, value in (
+            ("forward_reward_weight", forward_reward_weight),
+            ("spin_cost_weight", spin_cost_weight),
+            ("clearance_cost_weight", clearance_cost_weight),
+            ("collision_penalty", collision_penalty),
+            ("start_clearance", start_clearance),
+        ):
+            check_finite(label, value)
+        for label, size in (("render_width", render_width), ("render_height", render_height)):
+            check_image_size(label, size)
+        for label, side in (("camera_width", camera_width), ("camera_height", camera_height)):
+            if side is not None:
+                check_image_size(label, side)
 
         self.action_type = action_type
         self.render_mode = render_mode
@@ -230,8 +254,7 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
         self.start_clearance = float(start_clearance)
         self.start_pose: tuple[float, float, float] | None = None
         if start_pose is not None:
-            x, y, yaw = (float(v) for v in start_pose)
-            self.start_pose = (x, y, yaw)
+            self.start_pose = check_start_pose(start_pose, self.arena_size, ROBOT_RADIUS)
         self.forward_reward_weight = forward_reward_weight
         self.spin_cost_weight = spin_cost_weight
         self.clearance_cost_weight = clearance_cost_weight
@@ -247,6 +270,12 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
         self.xml_file = Path(xml_file) if xml_file is not None else DEFAULT_SCENE
         self.model, _ = build_model(self.xml_file, self.arena_size, self.num_obstacles[1])
         self.model.opt.timestep = control_timestep / physics_substeps
+        self._size_framebuffer(
+            (render_width, render_height),
+            (camera_width or _DEFAULT_CAMERA_SIZE, camera_height or _DEFAULT_CAMERA_SIZE),
+        )
+        # Videos play at real speed for any control step (an instance attribute: per env).
+        self.metadata = {**self.metadata, "render_fps": 1.0 / control_timestep}
         self.model.actuator_ctrlrange[:] = (-max_wheel_speed, max_wheel_speed)
         self.data = mujoco.MjData(self.model)
         self._slots = ObstacleSlots(self.model, self.num_obstacles[1])
@@ -255,8 +284,8 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
         self.drive = DiffDrive.from_model(self.model, max_wheel_speed)
         self.max_linear_speed = float(max_linear_speed or self.drive.max_linear_speed)
         self.max_angular_speed = float(max_angular_speed or self.drive.max_angular_speed)
-        _check_positive("max_linear_speed", self.max_linear_speed)
-        _check_positive("max_angular_speed", self.max_angular_speed)
+        check_positive("max_linear_speed", self.max_linear_speed)
+        check_positive("max_angular_speed", self.max_angular_speed)
 
         self.laser_spec = None
         self._laser = None
@@ -329,6 +358,13 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
         self._viewer = HumanViewer(self.model, self.data) if render_mode == "human" else None
         self._last_laser: NDArray[np.float32] | None = None
         self._clipped_actions = 0
+        self._closed = False
+
+    def _size_framebuffer(self, *sizes: tuple[int, int]) -> None:
+        # Renderers need an offscreen buffer at least as large as their image.
+        global_ = self.model.vis.global_
+        global_.offwidth = max(global_.offwidth, *(width for width, _ in sizes))
+        global_.offheight = max(global_.offheight, *(height for _, height in sizes))
 
     @property
     def dt(self) -> float:
@@ -339,6 +375,7 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:
         """Draw a new arena layout and start pose (see Starting State)."""
+        self._check_open("reset")
         super().reset(seed=seed)
         self.layout = sample_layout(
             self.np_random,
@@ -355,6 +392,11 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
         self.data.qpos[adr : adr + 3] = (x, y, self.model.body_pos[self._base][2])
         self.data.qpos[adr + 3 : adr + 7] = (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
         mujoco.mj_forward(self.model, self.data)
+        if self.start_pose is not None and self._in_collision():
+            raise ValueError(
+                f"start_pose {self.start_pose} overlaps a wall or obstacle of the scene "
+                f"{self.xml_file.name}; choose a free pose"
+            )
         self._clipped_actions = 0
         obs = self._observe()
         parts = dict.fromkeys(_REWARD_PARTS, 0.0)
@@ -367,6 +409,7 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
         self, action: NDArray[np.float32]
     ) -> tuple[dict[str, NDArray[Any]], float, bool, bool, dict[str, Any]]:
         """Apply ``action`` for one control step (see Action Space)."""
+        self._check_open("step")
         raw = np.asarray(action, dtype=np.float64)
         if raw.shape != (2,):
             raise ValueError(f"action must have shape (2,), got shape {raw.shape}: {raw!r}")
@@ -391,6 +434,7 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
             mujoco.mj_step2(self.model, self.data)
             mujoco.mj_step1(self.model, self.data)
 
+        diverged = self._diverged()
         obs = self._observe()
         collision = self._in_collision()
         forward_speed, yaw_rate = obs["velocity"]
@@ -406,13 +450,31 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
         terminated = collision and self.terminate_on_collision
         if self.render_mode == "human":
             self.render()
-        return (
-            obs,
-            reward,
-            terminated,
-            False,
-            self._info(obs, command, collision, parts, was_clipped),
-        )
+        info = self._info(obs, command, collision, parts, was_clipped)
+        if diverged:
+            info["physics_diverged"] = diverged
+        return obs, reward, terminated, bool(diverged), info
+
+    def _diverged(self) -> str:
+        """MuJoCo's divergence warning from this step, or ``""``.
+
+        MuJoCo resets the state by itself when the accelerations blow up, so the episode is
+        truncated with the reason in ``info["physics_diverged"]`` and a logged warning.
+        """
+        for warning in _DIVERGENCE_WARNINGS:
+            if self.data.warning[warning].number:
+                message = (
+                    f"MuJoCo reported {warning.name} (the simulation diverged and MuJoCo reset "
+                    f"it) at sim time {self.data.time:.3f} s; the episode is truncated. Lower "
+                    f"control_timestep / physics_substeps (now {self.model.opt.timestep} s)."
+                )
+                gym.logger.warn(message)
+                return message
+        return ""
+
+    def _check_open(self, method: str) -> None:
+        if self._closed:
+            raise RuntimeError(f"{method}() called after close(); make a new env")
 
     def _observe(self) -> dict[str, NDArray[Any]]:
         sensordata = self.data.sensordata
@@ -491,18 +553,9 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
         return self._overhead.render(self.data, origin, points, hit)
 
     def close(self) -> None:
-        """Free renderers and windows."""
+        """Free renderers and windows; the env cannot step again afterwards."""
+        self._closed = True
         for closable in (self._camera, self._overhead, self._viewer):
             if closable is not None:
                 closable.close()
         self._camera = self._overhead = self._viewer = None
-
-
-def _check_choice(label: str, value: object, allowed: tuple[object, ...]) -> None:
-    if value not in allowed:
-        raise ValueError(f"{label} must be one of {list(allowed)}, got {value!r}")
-
-
-def _check_positive(label: str, value: float) -> None:
-    if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-        raise ValueError(f"{label} must be a finite number > 0, got {value!r}")

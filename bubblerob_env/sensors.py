@@ -154,8 +154,8 @@ class CameraSpec:
 
     def __post_init__(self) -> None:
         for label, value in (("width", self.width), ("height", self.height)):
-            if not 1 <= value <= 2048:
-                raise ValueError(f"camera {label} must be in [1, 2048] pixels, got {value}")
+            if not 1 <= value <= 4096:
+                raise ValueError(f"camera {label} must be in [1, 4096] pixels, got {value}")
 
     @property
     def focal_length(self) -> float:
@@ -328,26 +328,37 @@ class CameraSensor:
     """The forward RGB camera, rendered offscreen with ``mujoco.Renderer``.
 
     Shadows and reflections are off unless the spec asks for them: on Mesa's CPU renderer they
-    cost about 15x per frame.
+    cost about 15x per frame. The OpenGL context is made on the first frame, not here, so an env
+    can be built in a parent process that then forks (``AsyncVectorEnv``, SB3's
+    ``SubprocVecEnv``): an EGL context does not survive a fork.
     """
 
     def __init__(self, model: mujoco.MjModel, spec: CameraSpec) -> None:
         self.spec = spec
-        self._renderer = mujoco.Renderer(model, spec.height, spec.width)
-        flags = self._renderer.scene.flags
-        flags[mujoco.mjtRndFlag.mjRND_SHADOW] = spec.shadows
-        flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = spec.reflections
-        flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = False
+        self._model = model
+        self._renderer: mujoco.Renderer | None = None
         self._camera = model.camera(names.FRONT_CAMERA).id
         # MuJoCo draws rangefinder rays by default: the camera must not see the nose sensor's.
         self._option = mujoco.MjvOption()
         self._option.flags[mujoco.mjtVisFlag.mjVIS_RANGEFINDER] = False
 
+    def _make_renderer(self) -> mujoco.Renderer:
+        renderer = mujoco.Renderer(self._model, self.spec.height, self.spec.width)
+        flags = renderer.scene.flags
+        flags[mujoco.mjtRndFlag.mjRND_SHADOW] = self.spec.shadows
+        flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = self.spec.reflections
+        flags[mujoco.mjtRndFlag.mjRND_SKYBOX] = False
+        return renderer
+
     def __call__(self, model: mujoco.MjModel, data: mujoco.MjData) -> NDArray[np.uint8]:
         """One frame, ``(height, width, 3)`` ``uint8``."""
+        if self._renderer is None:
+            self._renderer = self._make_renderer()
         self._renderer.update_scene(data, camera=self._camera, scene_option=self._option)
         return self._renderer.render()
 
     def close(self) -> None:
-        """Free the OpenGL context."""
-        self._renderer.close()
+        """Free the OpenGL context, if one was made."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None

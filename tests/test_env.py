@@ -79,7 +79,9 @@ def test_stable_baselines3_env_checker_passes_without_warnings():
 
 
 def test_unknown_kwarg_raises_with_the_valid_names():
-    with pytest.raises(TypeError, match=r"\['lazer_num_rays'\].*laser_num_rays"):
+    with pytest.raises(
+        TypeError, match=r"got an unexpected keyword argument 'lazer_num_rays'.*laser_num_rays"
+    ):
         gym.make("BubbleRob-v0", lazer_num_rays=10)
 
 

@@ -1,0 +1,184 @@
+"""Packed frames: the record headers writers put before messages, and the index entries of frames.
+
+MCAP and ROS 1 writers take a frame's records, headers included, as one byte string packed by one
+``struct`` call upstream (:class:`~bubblerob_env.ros.serialize.FramePacker`). :class:`Framing`
+says which header goes before each message; :class:`FrameLayout` where each record of a packed
+frame starts. Writers index packed frames when their chunk closes, with numpy
+(:func:`index_frames`), giving the bytes the same records written one by one give.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from typing import Any, BinaryIO
+
+import numpy as np
+from numpy.typing import NDArray
+from rosbags.rosbag1.writer import MAXSIZE
+
+from bubblerob_env.ros.encode import Item, Slot
+
+__all__ = [
+    "LOG_SLOTS",
+    "FrameLayout",
+    "Framing",
+    "Record",
+    "append_batch",
+    "index_entries",
+    "index_frames",
+]
+
+Record = tuple[str, int, bytes]
+"""``(topic, log time in ns, serialised message)``."""
+
+LOG_SLOTS = ("log_ns", "log_sec", "log_nsec")
+"""Slot names of a record's log time in :meth:`Framing.header` (ns; ROS 1: sec and nsec); records
+logged at the action's stamp use them prefixed with ``action_``."""
+
+
+@dataclass(frozen=True)
+class Framing:
+    """The header a writer puts before each message record in a chunk, as ``struct`` items.
+
+    ``kind`` is ``"mcap"``, ``"ros1"`` or ``"raw"`` (no header: messages back to back, for
+    storages that keep each message apart, such as sqlite3); ``ids`` maps each topic to its
+    channel (MCAP), connection (ROS 1) or topic (sqlite3) id. Two sinks with equal framings take
+    the same packed bytes.
+    """
+
+    kind: str
+    ids: tuple[tuple[str, int], ...]
+
+    def header(self, topic: str, size: int, action: bool) -> list[Item]:
+        """Items of the header of a ``size``-byte message on ``topic`` (see :data:`LOG_SLOTS`)."""
+        cid = dict(self.ids)[topic]
+        prefix = "action_" if action else ""
+        if self.kind == "mcap":
+            stamp = Slot(prefix + "log_ns")
+            return [("B", 0x05), ("Q", 22 + size), ("H", cid), ("I", 0), ("Q", stamp), ("Q", stamp)]
+        if self.kind == "ros1":
+            sec, nsec = Slot(prefix + "log_sec"), Slot(prefix + "log_nsec")
+            return [
+                ("I", 38), ("I", 4), ("4s", b"op=\x02"), ("I", 9), ("5s", b"conn="), ("I", cid),
+                ("I", 13), ("5s", b"time="), ("I", sec), ("I", nsec), ("I", size),
+            ]  # fmt: skip
+        if self.kind == "raw":
+            return []
+        raise ValueError(f"unknown framing {self.kind!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class FrameLayout:
+    """Where the records of a packed frame start, their channel ids, and which stamp each has.
+
+    ``action[i]``: record ``i`` is logged at the action's stamp, else at the frame's.
+    """
+
+    channels: tuple[int, ...]
+    offsets: tuple[int, ...]
+    action: tuple[bool, ...]
+    size: int
+
+    def spans(self) -> list[tuple[int, int, int, bool]]:
+        """``(channel, start, end, action)`` of each record: where it lies in the packed frame."""
+        ends = (*self.offsets[1:], self.size)
+        return list(zip(self.channels, self.offsets, ends, self.action, strict=True))
+
+    @property
+    def has_action(self) -> bool:
+        """Whether any record is logged at the action's stamp."""
+        return any(self.action)
+
+
+Frame = tuple[FrameLayout, int, Any, Any]
+"""Packed frames in a chunk: their layout, the first one's position in the chunk, and the stamp
+and action stamp (ints: one frame; equal-length ``int64`` arrays: that many frames in a row)."""
+Index = dict[int, list[Any]]
+"""Channel -> its ``(stamp, position)`` tuples and ``(n, 2)`` arrays of them, in write order."""
+
+
+def _runs(frames: list[Frame]) -> Iterator[tuple[FrameLayout, NDArray[np.int64], Any, Any]]:
+    """Layout, positions, stamps and action stamps of runs of frames with the same layout."""
+    start = 0
+    while start < len(frames):
+        layout, pos, stamps, action_stamps = frames[start]
+        if isinstance(stamps, np.ndarray):  # a batch of frames, back to back
+            yield layout, pos + layout.size * np.arange(len(stamps)), stamps, action_stamps
+            start += 1
+            continue
+        end = start + 1
+        while (
+            end < len(frames)
+            and frames[end][0] is layout
+            and not isinstance(frames[end][2], np.ndarray)
+        ):
+            end += 1
+        block = np.array([frame[1:] for frame in frames[start:end]], dtype=np.int64)
+        yield layout, block[:, 0], block[:, 1], block[:, 2]
+        start = end
+
+
+def index_frames(frames: list[Frame], index: Index) -> tuple[int, int, dict[int, int]]:
+    """Append the index entries of ``frames`` to ``index``, in the order records were written.
+
+    Returns the lowest and highest log time and the number of records per channel.
+    """
+    low, high = MAXSIZE, 0
+    counts: dict[int, int] = defaultdict(int)
+    for layout, positions, frame_stamps, action_stamps in _runs(frames):
+        stamps = {False: frame_stamps, True: action_stamps}
+        for cid, offset, action in zip(layout.channels, layout.offsets, layout.action, strict=True):
+            entries = np.empty((len(positions), 2), dtype=np.int64)
+            entries[:, 0] = stamps[action]
+            entries[:, 1] = positions + offset
+            index[cid].append(entries)
+            counts[cid] += len(positions)
+        for action in set(layout.action):
+            low = min(low, int(stamps[action].min()))
+            high = max(high, int(stamps[action].max()))
+    return low, high, counts
+
+
+def append_batch(
+    frames: list[Frame],
+    chunk: Callable[[], BinaryIO],
+    close_chunk: Callable[[], None],
+    threshold: int,
+    batch: tuple[Any, FrameLayout, NDArray[np.int64], NDArray[np.int64]],
+) -> None:
+    """Append a batch of packed frames to a writer's open chunks, noting them in ``frames``.
+
+    ``batch`` is ``(data, layout, stamps, action_stamps)``: ``len(stamps)`` frames back to back
+    in the bytes-like ``data``. ``chunk()`` is the open chunk's buffer; ``close_chunk()`` writes
+    it (indexing and clearing ``frames``) and opens the next. Frame by frame, writers close the
+    chunk right after the first frame that ends beyond ``threshold``; the batch is split at the
+    same frames, so that both give the same chunks.
+    """
+    data, layout, stamps, action_stamps = batch
+    size, view, done = layout.size, memoryview(data).cast("B"), 0
+    while done < len(stamps):
+        buffer = chunk()
+        pos = buffer.tell()
+        end = done + min(len(stamps) - done, max(1, (threshold - pos) // size + 1))
+        frames.append((layout, pos, stamps[done:end], action_stamps[done:end]))
+        buffer.write(view[done * size : end * size])
+        if pos + (end - done) * size > threshold:
+            close_chunk()
+        done = end
+
+
+def index_entries(items: list[Any]) -> Iterator[NDArray[np.int64]]:
+    """``(n, 2)`` arrays of ``(stamp, position)`` from index tuples and arrays, in order."""
+    run: list[tuple[int, int]] = []
+    for item in items:
+        if isinstance(item, tuple):
+            run.append(item)
+            continue
+        if run:
+            yield np.array(run, dtype=np.int64)
+            run = []
+        yield item
+    if run:
+        yield np.array(run, dtype=np.int64)

@@ -1,0 +1,347 @@
+"""Observation + info + action + sensor specs -> ROS messages. Pure: no I/O, no clocks.
+
+Conversion happens in two stages, so that the recorder's fast path and anyone who wants message
+objects share one definition of every field:
+
+1. :meth:`RosConverter.frame_values` (or ``frame_args``, see :mod:`~bubblerob_env.ros.values`)
+   turns one env frame (the observation and info of a ``reset`` or ``step``, plus the action that
+   led to it) into flat field values in ROS units and conventions: REP 117 ``+inf``/``-inf``
+   ranges, quaternions in ROS order (x, y, z, w), the action as a wheel speed command and a body
+   twist.
+2. :meth:`RosConverter.message` builds the ``rosbags`` message of one topic key from such a dict.
+   Given :class:`~bubblerob_env.ros.encode.Slot` placeholders instead of values (see
+   :meth:`RosConverter.slots`), it builds the template that :mod:`~bubblerob_env.ros.encode`
+   compiles.
+
+Frames follow REP 103/105: ``odom -> base_link`` on ``/tf`` and in ``nav_msgs/Odometry`` (twist in
+``base_link``), ``base_link -> <sensor>`` on ``/tf_static``, the camera image in
+``camera_optical_frame``.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from rosbags.typesys.store import Typestore
+
+from bubblerob_env.kinematics import DiffDrive
+from bubblerob_env.ros.distros import get_distro, typestore
+from bubblerob_env.ros.encode import Slot
+from bubblerob_env.ros.topics import MSGTYPES
+from bubblerob_env.ros.values import SCALAR_NAMES, STEP_NAMES, FrameValues
+from bubblerob_env.sensors import CameraSpec, LaserSpec, ProximitySpec, StaticTransform
+
+__all__ = ["FRAME_KEYS", "EnvSpecs", "RosConverter", "split_stamp"]
+
+ODOM_FRAME = "odom"
+BASE_FRAME = "base_link"
+
+FRAME_KEYS = (
+    "scan",
+    "proximity",
+    "sensor_trigger",
+    "image",
+    "camera_info",
+    "odom",
+    "tf",
+    "clock",
+    "simulation_time",
+    "cmd_vel",
+    "left_motor_speed",
+    "right_motor_speed",
+    "action",
+    "reward",
+    "terminated",
+    "truncated",
+)
+"""Keys of frame topics, in write order; see :meth:`RosConverter.frame_keys` for which apply."""
+
+_RESULT_KEYS = ("cmd_vel", "left_motor_speed", "right_motor_speed", "action")
+_STEP_KEYS = (*_RESULT_KEYS, "reward", "terminated", "truncated")
+_RADIATION = {"ULTRASOUND": 0, "INFRARED": 1}
+
+
+@dataclass(frozen=True)
+class EnvSpecs:
+    """What the converter needs to know about an env (all of it plain data)."""
+
+    laser: LaserSpec | None
+    proximity: ProximitySpec
+    camera: CameraSpec | None
+    static_transforms: tuple[StaticTransform, ...]
+    drive: DiffDrive
+    action_type: str
+    max_linear_speed: float
+    max_angular_speed: float
+
+    @classmethod
+    def from_env(cls, env: Any) -> EnvSpecs:
+        """Read the specs of a ``BubbleRobEnv`` (or any wrapper around one)."""
+        base = env.unwrapped
+        return cls(
+            base.laser_spec,
+            base.proximity_spec,
+            base.camera_spec,
+            tuple(base.static_transforms),
+            base.drive,
+            base.action_type,
+            float(base.max_linear_speed),
+            float(base.max_angular_speed),
+        )
+
+
+def split_stamp(stamp_ns: int) -> tuple[int, int]:
+    """Nanoseconds -> ``(sec, nanosec)``."""
+    return stamp_ns // 1_000_000_000, stamp_ns % 1_000_000_000
+
+
+class RosConverter(FrameValues):
+    """Builds the messages of one distro from env frames (see the module docstring).
+
+    ``frame_prefix`` (e.g. ``"robot2/"``, as :attr:`~bubblerob_env.ros.topics.Topics.frame_prefix`
+    gives for a namespace) goes before every frame id, so that robots sharing one ROS graph keep
+    separate tf trees on the shared ``/tf``; empty by default (``odom``, ``base_link``, ...).
+    """
+
+    def __init__(self, specs: EnvSpecs, distro: str = "jazzy", frame_prefix: str = "") -> None:
+        if frame_prefix and (frame_prefix.startswith("/") or not frame_prefix.endswith("/")):
+            raise ValueError(
+                f"frame_prefix must look like 'robot2/' (no leading slash, REP 105 / tf2), "
+                f"got {frame_prefix!r}"
+            )
+        self.specs = specs
+        self.frame_prefix = frame_prefix
+        self.distro = get_distro(distro)
+        self.store: Typestore = typestore(distro)
+        self._types = self.store.types
+        self._ros1 = self.distro.ros_version == 1
+        self._camera_field = {
+            n.lower(): n for n, _ in self.store.fielddefs["sensor_msgs/msg/CameraInfo"][1]
+        }
+        self._range_fields = {n for n, _ in self.store.fielddefs["sensor_msgs/msg/Range"][1]}
+        self._init_values(specs)
+
+    def frame_keys(self, stepped: bool) -> tuple[str, ...]:
+        """Keys of the messages of a frame: after ``reset`` (``stepped=False``) or a ``step``."""
+        keys = []
+        for key in FRAME_KEYS:
+            if key == "scan" and self.specs.laser is None:
+                continue
+            if key in ("image", "camera_info") and self.specs.camera is None:
+                continue
+            if key in _STEP_KEYS and not stepped:
+                continue
+            keys.append(key)
+        return tuple(keys)
+
+    @staticmethod
+    def action_keys() -> tuple[str, ...]:
+        """Keys that describe the action of a step (logged when it was sent, not after)."""
+        return _RESULT_KEYS
+
+    def slots(self) -> dict[str, Slot]:
+        """Placeholders for every value :meth:`frame_values` returns, to build templates."""
+        slots = {name: Slot(name) for name in (*SCALAR_NAMES, *STEP_NAMES) if name != "action"}
+        slots["action"] = Slot("action", 2)
+        if self.specs.laser is not None:
+            slots["ranges"] = Slot("ranges", self.specs.laser.num_rays)
+        if self.specs.camera is not None:
+            camera = self.specs.camera
+            slots["image"] = Slot("image", camera.width * camera.height * 3)
+        return slots
+
+    # -- messages -------------------------------------------------------------------------------
+
+    def message(self, key: str, v: Mapping[str, Any]) -> Any:
+        """The ``rosbags`` message of topic ``key`` for frame values ``v``."""
+        return getattr(self, f"_{key}")(v)
+
+    def _msg(self, key: str, **fields: Any) -> Any:
+        return self._types[MSGTYPES[key]](**fields)
+
+    def _time(self, sec: Any, nanosec: Any) -> Any:
+        return self._types["builtin_interfaces/msg/Time"](sec=sec, nanosec=nanosec)
+
+    def _header(self, v: Mapping[str, Any], frame_id: str) -> Any:
+        stamp = self._time(v["sec"], v["nanosec"])
+        if self._ros1:
+            return self._types["std_msgs/msg/Header"](
+                seq=v["seq"], stamp=stamp, frame_id=self.frame_prefix + frame_id
+            )
+        return self._types["std_msgs/msg/Header"](
+            stamp=stamp, frame_id=self.frame_prefix + frame_id
+        )
+
+    def _vector3(self, x: Any, y: Any, z: Any) -> Any:
+        return self._types["geometry_msgs/msg/Vector3"](x=x, y=y, z=z)
+
+    def _quaternion(self, x: Any, y: Any, z: Any, w: Any) -> Any:
+        return self._types["geometry_msgs/msg/Quaternion"](x=x, y=y, z=z, w=w)
+
+    def _scan(self, v: Mapping[str, Any]) -> Any:
+        spec = self.specs.laser
+        assert spec is not None
+        return self._msg(
+            "scan",
+            header=self._header(v, spec.frame_id),
+            angle_min=spec.angle_min,
+            angle_max=spec.angle_max,
+            angle_increment=spec.angle_increment,
+            time_increment=0.0,  # every ray is cast at the same instant
+            scan_time=spec.scan_time,
+            range_min=spec.range_min,
+            range_max=spec.range_max,
+            ranges=_array(v["ranges"], np.float32),
+            intensities=np.zeros(0, dtype=np.float32),
+        )
+
+    def _proximity(self, v: Mapping[str, Any]) -> Any:
+        spec = self.specs.proximity
+        fields = {
+            "header": self._header(v, spec.frame_id),
+            "radiation_type": _RADIATION[spec.radiation_type],
+            "field_of_view": spec.field_of_view,
+            "min_range": spec.range_min,
+            "max_range": spec.range_max,
+            "range": v["proximity"],
+        }
+        if "variance" in self._range_fields:  # Jazzy and later
+            fields["variance"] = 0.0
+        return self._msg("proximity", **fields)
+
+    def _sensor_trigger(self, v: Mapping[str, Any]) -> Any:
+        return self._msg("sensor_trigger", data=v["triggered"])
+
+    def _image(self, v: Mapping[str, Any]) -> Any:
+        spec = self.specs.camera
+        assert spec is not None
+        return self._msg(
+            "image",
+            header=self._header(v, spec.frame_id),
+            height=spec.height,
+            width=spec.width,
+            encoding="rgb8",
+            is_bigendian=0,
+            step=3 * spec.width,
+            data=_array(v["image"], np.uint8),
+        )
+
+    def _camera_info(self, v: Mapping[str, Any]) -> Any:
+        spec = self.specs.camera
+        assert spec is not None
+        k = spec.intrinsics()
+        p = np.zeros((3, 4))
+        p[:, :3] = k
+        roi = self._types["sensor_msgs/msg/RegionOfInterest"](
+            x_offset=0, y_offset=0, height=0, width=0, do_rectify=False
+        )
+        matrices = {"d": np.zeros(5), "k": k.ravel(), "r": np.eye(3).ravel(), "p": p.ravel()}
+        return self._msg(
+            "camera_info",
+            header=self._header(v, spec.frame_id),
+            height=spec.height,
+            width=spec.width,
+            distortion_model="plumb_bob",
+            binning_x=0,
+            binning_y=0,
+            roi=roi,
+            **{self._camera_field[name]: value for name, value in matrices.items()},
+        )
+
+    def _cmd_vel(self, v: Mapping[str, Any]) -> Any:
+        return self._msg(
+            "cmd_vel",
+            linear=self._vector3(v["linear_x"], 0.0, 0.0),
+            angular=self._vector3(0.0, 0.0, v["angular_z"]),
+        )
+
+    def _left_motor_speed(self, v: Mapping[str, Any]) -> Any:
+        return self._msg("left_motor_speed", data=v["left"])
+
+    def _right_motor_speed(self, v: Mapping[str, Any]) -> Any:
+        return self._msg("right_motor_speed", data=v["right"])
+
+    def _action(self, v: Mapping[str, Any]) -> Any:
+        dim = self._types["std_msgs/msg/MultiArrayDimension"](label="action", size=2, stride=2)
+        layout = self._types["std_msgs/msg/MultiArrayLayout"](dim=[dim], data_offset=0)
+        return self._msg("action", layout=layout, data=_array(v["action"], np.float64))
+
+    def _odom(self, v: Mapping[str, Any]) -> Any:
+        t = self._types
+        pose = t["geometry_msgs/msg/Pose"](
+            position=t["geometry_msgs/msg/Point"](x=v["px"], y=v["py"], z=v["pz"]),
+            orientation=self._quaternion(v["qx"], v["qy"], v["qz"], v["qw"]),
+        )
+        twist = t["geometry_msgs/msg/Twist"](
+            linear=self._vector3(v["vx"], v["vy"], v["vz"]),
+            angular=self._vector3(v["wx"], v["wy"], v["wz"]),
+        )
+        zeros = np.zeros(36)  # ground truth from the simulator: no uncertainty to report
+        return self._msg(
+            "odom",
+            header=self._header(v, ODOM_FRAME),
+            child_frame_id=self.frame_prefix + BASE_FRAME,
+            pose=t["geometry_msgs/msg/PoseWithCovariance"](pose=pose, covariance=zeros),
+            twist=t["geometry_msgs/msg/TwistWithCovariance"](twist=twist, covariance=zeros),
+        )
+
+    def _transform(self, v: Mapping[str, Any], parent: str, child: str, xyz: Any, xyzw: Any) -> Any:
+        t = self._types
+        transform = t["geometry_msgs/msg/Transform"](
+            translation=self._vector3(*xyz), rotation=self._quaternion(*xyzw)
+        )
+        return t["geometry_msgs/msg/TransformStamped"](
+            header=self._header(v, parent),
+            child_frame_id=self.frame_prefix + child,
+            transform=transform,
+        )
+
+    def _tf(self, v: Mapping[str, Any]) -> Any:
+        pose = self._transform(
+            v,
+            ODOM_FRAME,
+            BASE_FRAME,
+            (v["px"], v["py"], v["pz"]),
+            (v["qx"], v["qy"], v["qz"], v["qw"]),
+        )
+        return self._msg("tf", transforms=[pose])
+
+    def _clock(self, v: Mapping[str, Any]) -> Any:
+        return self._msg("clock", clock=self._time(v["sec"], v["nanosec"]))
+
+    def _simulation_time(self, v: Mapping[str, Any]) -> Any:
+        return self._msg("simulation_time", data=v["sim_time"])
+
+    def _reward(self, v: Mapping[str, Any]) -> Any:
+        return self._msg("reward", data=v["reward"])
+
+    def _terminated(self, v: Mapping[str, Any]) -> Any:
+        return self._msg("terminated", data=v["terminated"])
+
+    def _truncated(self, v: Mapping[str, Any]) -> Any:
+        return self._msg("truncated", data=v["truncated"])
+
+    def tf_static(self, stamp_ns: int) -> Any:
+        """``/tf_static``: ``base_link`` to every sensor frame (and the camera's optical frame)."""
+        sec, nanosec = split_stamp(stamp_ns)
+        v = {"sec": sec, "nanosec": nanosec, "seq": 0}
+        transforms = [
+            self._transform(v, s.parent, s.child, s.translation, s.rotation_xyzw)
+            for s in self.specs.static_transforms
+        ]
+        return self._msg("tf_static", transforms=transforms)
+
+    def episode(self, metadata: Mapping[str, Any]) -> Any:
+        """``/bubblerob/episode``: the episode's metadata as a JSON ``std_msgs/String``."""
+        return self._msg("episode", data=json.dumps(metadata, sort_keys=True))
+
+
+def _array(value: Any, dtype: type[np.generic]) -> Any:
+    """Bytes from :meth:`RosConverter.frame_values` as an array; slots pass through."""
+    if isinstance(value, (bytes, bytearray, memoryview)):
+        return np.frombuffer(value, dtype=np.dtype(dtype).newbyteorder("<")).astype(dtype)
+    return value

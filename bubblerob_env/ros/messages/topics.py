@@ -1,0 +1,152 @@
+"""Topic names and message types of a recording, with presets.
+
+Every topic has a stable *key* (``"scan"``, ``"cmd_vel"``, ...) that the rest of the ROS layer uses;
+:class:`Topics` maps keys to names. A name of ``None`` leaves that topic out of a recording. A
+namespace prefixes every relative-looking name except the global ones (``/tf``, ``/tf_static``,
+``/clock``), as ``ROS_NAMESPACE`` does for a ROS node.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+__all__ = [
+    "GLOBAL_TOPICS",
+    "LATCHED_TOPICS",
+    "MSGTYPES",
+    "PRESETS",
+    "STEP_TOPICS",
+    "Topics",
+    "topics_preset",
+]
+
+MSGTYPES: dict[str, str] = {
+    "scan": "sensor_msgs/msg/LaserScan",
+    "proximity": "sensor_msgs/msg/Range",
+    "sensor_trigger": "std_msgs/msg/Bool",
+    "image": "sensor_msgs/msg/Image",
+    "camera_info": "sensor_msgs/msg/CameraInfo",
+    "cmd_vel": "geometry_msgs/msg/Twist",
+    "left_motor_speed": "std_msgs/msg/Float32",
+    "right_motor_speed": "std_msgs/msg/Float32",
+    "odom": "nav_msgs/msg/Odometry",
+    "tf": "tf2_msgs/msg/TFMessage",
+    "tf_static": "tf2_msgs/msg/TFMessage",
+    "clock": "rosgraph_msgs/msg/Clock",
+    "simulation_time": "std_msgs/msg/Float32",
+    "reward": "std_msgs/msg/Float64",
+    "terminated": "std_msgs/msg/Bool",
+    "truncated": "std_msgs/msg/Bool",
+    "action": "std_msgs/msg/Float64MultiArray",
+    "episode": "std_msgs/msg/String",
+}
+"""Message type of each topic key (ROS 2 style names, as ``rosbags`` spells them)."""
+
+STEP_TOPICS = ("cmd_vel", "left_motor_speed", "right_motor_speed", "action")
+"""Keys published once per ``step`` with the action, stamped when the action was sent."""
+
+LATCHED_TOPICS = ("tf_static", "episode")
+"""Keys written latched (ROS 1) / transient-local (ROS 2): a late subscriber still gets them."""
+
+GLOBAL_TOPICS = ("tf", "tf_static", "clock")
+"""Keys whose names a namespace does not change (tf and the clock are shared by all robots)."""
+
+
+@dataclass(frozen=True)
+class Topics:
+    """Topic name of each key; ``None`` leaves the topic out.
+
+    The defaults are REP-style names plus the seed tutorial's BubbleRob topics
+    (``/sensorTrigger``, ``/leftMotorSpeed``, ``/rightMotorSpeed``, ``/simulationTime``).
+    Camera topics are written only when the env has its camera on.
+    """
+
+    scan: str | None = "/scan"
+    proximity: str | None = "/proximity"
+    sensor_trigger: str | None = "/sensorTrigger"
+    image: str | None = "/camera/image_raw"
+    camera_info: str | None = "/camera/camera_info"
+    cmd_vel: str | None = "/cmd_vel"
+    left_motor_speed: str | None = "/leftMotorSpeed"
+    right_motor_speed: str | None = "/rightMotorSpeed"
+    odom: str | None = "/odom"
+    tf: str | None = "/tf"
+    tf_static: str | None = "/tf_static"
+    clock: str | None = "/clock"
+    simulation_time: str | None = "/simulationTime"
+    reward: str | None = "/reward"
+    terminated: str | None = "/terminated"
+    truncated: str | None = "/truncated"
+    action: str | None = "/bubblerob/action"
+    episode: str | None = "/bubblerob/episode"
+    namespace: str = ""
+
+    def __post_init__(self) -> None:
+        for key in MSGTYPES:
+            name = getattr(self, key)
+            if name is not None and (not isinstance(name, str) or not name.strip("/")):
+                raise ValueError(f"topic {key!r} needs a non-empty name or None, got {name!r}")
+        if self.namespace and not self.namespace.strip("/"):
+            raise ValueError(f"namespace must name something, got {self.namespace!r}")
+        if self.action is None or self.episode is None:
+            raise ValueError(
+                "the 'action' and 'episode' topics cannot be left out: replay needs them"
+            )
+        names = [n for n in self.resolved().values()]
+        duplicated = sorted({n for n in names if names.count(n) > 1})
+        if duplicated:
+            raise ValueError(f"topic names must be distinct, repeated: {duplicated}")
+
+    @property
+    def frame_prefix(self) -> str:
+        """Prefix of this robot's tf frame ids: ``"robot2/"`` under namespace ``robot2``.
+
+        Empty without a namespace. ``/tf`` is shared by every robot in a graph, so namespaced
+        robots need frames of their own.
+        """
+        name = self.namespace.strip("/")
+        return f"{name}/" if name else ""
+
+    def resolved(self) -> dict[str, str]:
+        """Full name of every recorded key, namespace applied, in :data:`MSGTYPES` order."""
+        prefix = "/" + self.namespace.strip("/") if self.namespace.strip("/") else ""
+        names = {}
+        for key in MSGTYPES:
+            name = getattr(self, key)
+            if name is None:
+                continue
+            name = "/" + name.strip("/")
+            names[key] = name if key in GLOBAL_TOPICS else prefix + name
+        return names
+
+    def to_dict(self) -> dict[str, str | None]:
+        """Plain dict (for episode metadata); ``Topics(**d)`` rebuilds it."""
+        return dataclasses.asdict(self)
+
+    def replace(self, **changes: str | None) -> Topics:
+        """A copy with some names changed, e.g. ``replace(image=None)``."""
+        return dataclasses.replace(self, **changes)  # type: ignore[arg-type]
+
+
+PRESETS: dict[str, Topics] = {
+    "default": Topics(),
+    # The V-REP Pioneer tutorial (seed 002): /vrep/... sensor and command topics, /simTime.
+    "vrep": Topics(
+        scan="/vrep/scan",
+        image="/vrep/image",
+        camera_info="/vrep/camera_info",
+        cmd_vel="/vrep/cmd_vel",
+        simulation_time="/simTime",
+    ),
+}
+"""Named topic sets: ``default`` and ``vrep`` (the seed tutorials' Pioneer names)."""
+
+
+def topics_preset(name: str, namespace: str = "") -> Topics:
+    """The preset ``name`` (see :data:`PRESETS`), optionally under ``namespace``."""
+    try:
+        preset = PRESETS[name]
+    except KeyError:
+        raise ValueError(f"unknown topic preset {name!r}; known: {sorted(PRESETS)}") from None
+    return dataclasses.replace(preset, namespace=namespace)

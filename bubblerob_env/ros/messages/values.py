@@ -1,0 +1,117 @@
+"""Env frames -> flat field values: the first stage of :mod:`~bubblerob_env.ros.convert`.
+
+:class:`FrameValues` (a base of :class:`~bubblerob_env.ros.convert.RosConverter`) turns one env
+frame, the observation and info of a ``reset`` or ``step`` plus the action that led to it, into
+field values in ROS units and conventions. The recorder's fast path takes them as a tuple
+(:meth:`FrameValues.frame_args`), which the generated packer reads by position without building a
+dict; message builders take them as a dict (:meth:`FrameValues.frame_values`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any, SupportsFloat
+
+import numpy as np
+from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    from bubblerob_env.ros.convert import EnvSpecs
+
+__all__ = ["SCALAR_NAMES", "STEP_NAMES", "FrameValues"]
+
+SCALAR_NAMES = (
+    "sec", "nanosec", "seq", "sim_time", "proximity", "triggered",
+    "px", "py", "pz", "qx", "qy", "qz", "qw", "vx", "vy", "vz", "wx", "wy", "wz",
+)  # fmt: skip
+# Values of a frame after a step, after those of SCALAR_NAMES, the scan and the image.
+STEP_NAMES = (
+    "action", "left", "right", "linear_x", "angular_z", "reward", "terminated", "truncated",
+)  # fmt: skip
+
+
+class FrameValues:
+    """Field values of env frames (see the module docstring)."""
+
+    specs: EnvSpecs
+
+    def _init_values(self, specs: EnvSpecs) -> None:
+        self.specs = specs
+        self._proximity_min = specs.proximity.range_min
+        self._proximity_max = specs.proximity.range_max
+        names = [*SCALAR_NAMES]
+        names += ["ranges"] if specs.laser is not None else []
+        names += ["image"] if specs.camera is not None else []
+        self._reset_count = len(names)
+        self._names = (*names, *STEP_NAMES)
+
+    def value_names(self, stepped: bool) -> tuple[str, ...]:
+        """Names of the values of :meth:`frame_args`, in order (a reset's are a prefix)."""
+        return self._names if stepped else self._names[: self._reset_count]
+
+    def frame_args(
+        self,
+        obs: Mapping[str, NDArray[Any]],
+        info: Mapping[str, Any],
+        stamp_ns: int,
+        seq: int = 0,
+        action: NDArray[Any] | None = None,
+        reward: SupportsFloat = 0.0,
+        terminated: bool = False,
+        truncated: bool = False,
+    ) -> tuple[Any, ...]:
+        """Field values of one frame as a tuple named by :meth:`value_names` (the fast path).
+
+        ``action`` is ``None`` after a ``reset``.
+        """
+        # Called every step while recording: plain calls, a tuple (no dict), numpy for the scan.
+        sec, nanosec = divmod(stamp_ns, 1_000_000_000)
+        qw, qx, qy, qz = info["quaternion_wxyz"].tolist()
+        proximity = obs["proximity"].item(0)
+        if proximity >= self._proximity_max:  # REP 117
+            proximity = math.inf
+        elif proximity < self._proximity_min:
+            proximity = -math.inf
+        args: tuple[Any, ...] = (
+            sec, nanosec, seq & 0xFFFFFFFF, stamp_ns * 1e-9, proximity,
+            bool(info["proximity_triggered"]), *info["position"].tolist(), qx, qy, qz, qw,
+            *info["body_twist"].tolist(),
+        )  # fmt: skip
+        laser = self.specs.laser
+        if laser is not None:
+            ranges = obs["laser"].astype("<f4")  # a copy
+            ranges[ranges >= laser.range_max] = np.inf
+            ranges[ranges < laser.range_min] = -np.inf
+            args += (ranges.tobytes(),)
+        if self.specs.camera is not None:
+            args += (np.ascontiguousarray(obs["camera"], dtype=np.uint8).tobytes(),)
+        if action is None:
+            return args
+        raw = np.asarray(action, dtype="<f8").reshape(-1)
+        left, right = info["wheel_command"].tolist()
+        if self.specs.action_type == "twist":
+            linear_action, angular_action = (min(max(v, -1.0), 1.0) for v in raw.tolist())
+            linear = linear_action * self.specs.max_linear_speed
+            angular = angular_action * self.specs.max_angular_speed
+        else:
+            linear, angular = self.specs.drive.body_twist(left, right)
+        return (
+            *args, raw.tobytes(), left, right, float(linear), float(angular),
+            float(reward), bool(terminated), bool(truncated),
+        )  # fmt: skip
+
+    def frame_values(
+        self,
+        obs: Mapping[str, NDArray[Any]],
+        info: Mapping[str, Any],
+        stamp_ns: int,
+        seq: int = 0,
+        action: NDArray[Any] | None = None,
+        reward: SupportsFloat = 0.0,
+        terminated: bool = False,
+        truncated: bool = False,
+    ) -> dict[str, Any]:
+        """Field values of one frame by name (:meth:`frame_args` as a dict)."""
+        args = self.frame_args(obs, info, stamp_ns, seq, action, reward, terminated, truncated)
+        return dict(zip(self.value_names(action is not None), args, strict=True))

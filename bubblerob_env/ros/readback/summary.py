@@ -1,0 +1,139 @@
+"""Reading bags back: what a bag holds (topics, counts, time span) and its episodes' metadata.
+
+Any bag ``rosbags`` reads works: ROS 1 ``.bag`` files and ROS 2 bag directories (MCAP or sqlite3);
+the path of the ``.mcap``/``.db3`` file inside a ROS 2 bag directory is accepted too. Episodes are
+found by their metadata messages (JSON ``std_msgs/String``, see the recorder), on whatever topic
+name they were recorded under.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from rosbags.highlevel import AnyReader
+
+__all__ = [
+    "BagSummary",
+    "TopicSummary",
+    "bag_root",
+    "find_episodes",
+    "open_reader",
+    "read_summary",
+]
+
+_STRING = "std_msgs/msg/String"
+
+
+@dataclass(frozen=True)
+class TopicSummary:
+    """One topic of a bag."""
+
+    name: str
+    msgtype: str
+    count: int
+
+
+@dataclass(frozen=True)
+class BagSummary:
+    """What a bag holds. Times are nanoseconds of the bag's (simulated) clock."""
+
+    path: Path
+    storage: str
+    topics: tuple[TopicSummary, ...]
+    message_count: int
+    start_ns: int
+    end_ns: int
+    episodes: tuple[dict[str, Any], ...] = field(default=())
+    episode_topic: str | None = None
+
+    @property
+    def duration_s(self) -> float:
+        """Seconds from the first message to the last."""
+        return max(0, self.end_ns - self.start_ns) / 1e9
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data (for ``bubblerob info --json``)."""
+        return {
+            "path": str(self.path),
+            "storage": self.storage,
+            "message_count": self.message_count,
+            "start_ns": self.start_ns,
+            "end_ns": self.end_ns,
+            "duration_s": self.duration_s,
+            "topics": [t.__dict__ for t in self.topics],
+            "episode_topic": self.episode_topic,
+            "episodes": list(self.episodes),
+        }
+
+
+def bag_root(path: str | Path) -> Path:
+    """The path ``rosbags`` opens: a ROS 2 bag's directory even if given its storage file."""
+    path = Path(path)
+    if not path.exists():
+        raise FileNotFoundError(f"no bag at {path}")
+    storage_file = path.is_file() and path.suffix in (".mcap", ".db3")
+    if storage_file and (path.parent / "metadata.yaml").exists():
+        return path.parent
+    return path
+
+
+def open_reader(path: str | Path) -> AnyReader:
+    """An opened ``AnyReader`` of the bag at ``path`` (close it, or use it in ``with``)."""
+    reader = AnyReader([bag_root(path)])
+    reader.open()
+    return reader
+
+
+def _storage(root: Path) -> str:
+    if root.suffix == ".bag":
+        return "ros1"
+    if any(root.glob("*.mcap")):
+        return "mcap"
+    if any(root.glob("*.db3")):
+        return "sqlite3"
+    return "unknown"
+
+
+def find_episodes(reader: AnyReader) -> tuple[str | None, list[dict[str, Any]]]:
+    """``(topic, metadata of each episode)``: the first String topic holding episode metadata."""
+    for connection in reader.connections:
+        if connection.msgtype != _STRING:
+            continue
+        episodes = []
+        for conn, _, raw in reader.messages(connections=[connection]):
+            try:
+                data = json.loads(reader.deserialize(raw, conn.msgtype).data)  # type: ignore[attr-defined]
+            except (ValueError, AttributeError):
+                break
+            if not isinstance(data, dict) or "start_time_ns" not in data or "episode" not in data:
+                break
+            episodes.append(data)
+        if episodes:
+            episodes.sort(key=lambda e: (e["start_time_ns"], e["episode"]))
+            return connection.topic, episodes
+    return None, []
+
+
+def read_summary(path: str | Path) -> BagSummary:
+    """Topics, message counts, time span and episode metadata of the bag at ``path``."""
+    root = bag_root(path)
+    with AnyReader([root]) as reader:
+        counts: dict[tuple[str, str], int] = {}
+        for connection in reader.connections:
+            key = (connection.topic, connection.msgtype)
+            counts[key] = counts.get(key, 0) + connection.msgcount
+        topics = tuple(TopicSummary(t, m, n) for (t, m), n in sorted(counts.items()))
+        episode_topic, episodes = find_episodes(reader)
+        return BagSummary(
+            path=root,
+            storage=_storage(root),
+            topics=topics,
+            message_count=reader.message_count,
+            start_ns=reader.start_time if reader.message_count else 0,
+            end_ns=reader.end_time - 1 if reader.message_count else 0,  # rosbags: exclusive
+            episodes=tuple(episodes),
+            episode_topic=episode_topic,
+        )
