@@ -64,9 +64,9 @@ class StopAtSuccess(BaseCallback):
                 if normalizer is not None:
                     obs = normalizer.normalize_obs(obs)
                 action, _ = self.model.predict(obs, deterministic=True)
-                obs, _, terminated, truncated, _ = env.step(action)
+                obs, _, terminated, truncated, info = env.step(action)
                 if terminated or truncated:
-                    successes += bool(truncated and not terminated)
+                    successes += bool(info["is_success"])
                     break
         return successes / self.episodes
 

@@ -58,7 +58,8 @@ def run_episode(
 ) -> EpisodeStats:
     """Run one episode from ``seed`` with deterministic actions; append rendered frames if asked.
 
-    Success means the episode reached the time limit without a collision.
+    Success is the env's ``info["is_success"]`` on the last step: the time limit reached
+    without a collision.
     """
     obs, _ = env.reset(seed=seed)
     if frames is not None:
@@ -80,7 +81,7 @@ def run_episode(
         length=len(speeds),
         total_reward=total,
         collided=bool(info["collision"]),
-        succeeded=bool(truncated and not terminated),
+        succeeded=bool(info["is_success"]),
         speed_fractions=tuple(speeds),
     )
 

@@ -18,7 +18,6 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 import yaml
 
@@ -26,7 +25,6 @@ import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
 
 __all__ = [
     "ALGOS",
-    "SuccessInfo",
     "evaluation_score",
     "keep_best_model",
     "load_hyperparams",
@@ -48,16 +46,6 @@ _NOT_ALGO_KWARGS = (
     "vec_env",
     "torch_threads",
 )
-
-
-class SuccessInfo(gym.Wrapper):
-    """Sets SB3's ``info["is_success"]`` at episode end: time limit reached, no collision."""
-
-    def step(self, action):  # noqa: D102
-        obs, reward, terminated, truncated, info = self.env.step(action)
-        if terminated or truncated:
-            info["is_success"] = bool(truncated and not terminated)
-        return obs, reward, terminated, truncated, info
 
 
 def load_hyperparams(algo: str, env_id: str) -> dict[str, Any]:
@@ -182,7 +170,6 @@ def train(
         n_envs=count,
         seed=seed,
         env_kwargs=env_kwargs,
-        wrapper_class=SuccessInfo,
         vec_env_cls=vec_cls,
     )
     eval_env = make_vec_env(
@@ -190,7 +177,6 @@ def train(
         n_envs=1,
         seed=seed + EVAL_SEED_OFFSET,
         env_kwargs=env_kwargs,
-        wrapper_class=SuccessInfo,
     )
     if config.get("normalize", False):
         # rl-zoo's "normalize: true": running mean/std of observations (and returns for training).
