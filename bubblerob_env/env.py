@@ -355,7 +355,10 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
 
         self._render_size = (render_width, render_height)
         self._overhead: OverheadRenderer | None = None
-        self._viewer = HumanViewer(self.model, self.data) if render_mode == "human" else None
+        # The window opens on the first render, but a missing display is reported now.
+        self._viewer: HumanViewer | None = None
+        if render_mode == "human":
+            HumanViewer.require_display()
         self._last_laser: NDArray[np.float32] | None = None
         self._clipped_actions = 0
         self._closed = False
@@ -472,6 +475,11 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
                 return message
         return ""
 
+    def __getstate__(self) -> dict[str, Any]:
+        # Windows and OpenGL contexts cannot be pickled or deep-copied; a copy (SB3, RLlib and
+        # vector envs pickle envs) re-creates them on first use, as the original did.
+        return {**self.__dict__, "_overhead": None, "_viewer": None}
+
     def _check_open(self, method: str) -> None:
         if self._closed:
             raise RuntimeError(f"{method}() called after close(); make a new env")
@@ -539,7 +547,8 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
     def render(self) -> NDArray[np.uint8] | None:
         """``rgb_array``: overhead frame with the laser drawn; ``human``: update the window."""
         if self.render_mode == "human":
-            assert self._viewer is not None
+            if self._viewer is None:
+                self._viewer = HumanViewer(self.model, self.data)
             self._viewer.render()
             return None
         if self.render_mode != "rgb_array":

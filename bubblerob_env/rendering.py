@@ -104,15 +104,20 @@ class HumanViewer:
     """MuJoCo's interactive viewer window, synced once per ``render()`` call."""
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        self.require_display()
+        import mujoco.viewer  # imported here: it loads GLFW, which needs a display
+
+        self._viewer = mujoco.viewer.launch_passive(model, data)
+
+    @staticmethod
+    def require_display() -> None:
+        """Raise a clear error where no window can be opened."""
         if not display_available():
             raise RuntimeError(
                 "render_mode='human' opens a window, but no display was found (DISPLAY and "
                 "WAYLAND_DISPLAY are unset). Use render_mode='rgb_array' to get frames as arrays, "
                 "or run under a display (for example xvfb-run)."
             )
-        import mujoco.viewer  # imported here: it loads GLFW, which needs a display
-
-        self._viewer = mujoco.viewer.launch_passive(model, data)
 
     def render(self) -> None:
         """Show the current state."""

@@ -338,9 +338,24 @@ class CameraSensor:
         self._model = model
         self._renderer: mujoco.Renderer | None = None
         self._camera = model.camera(names.FRONT_CAMERA).id
+        self._option = self._scene_option()
+
+    @staticmethod
+    def _scene_option() -> mujoco.MjvOption:
         # MuJoCo draws rangefinder rays by default: the camera must not see the nose sensor's.
-        self._option = mujoco.MjvOption()
-        self._option.flags[mujoco.mjtVisFlag.mjVIS_RANGEFINDER] = False
+        option = mujoco.MjvOption()
+        option.flags[mujoco.mjtVisFlag.mjVIS_RANGEFINDER] = False
+        return option
+
+    def __getstate__(self) -> dict[str, object]:
+        # An OpenGL context (and MjvOption) cannot be pickled or copied: the copy makes its own.
+        state = {**self.__dict__, "_renderer": None}
+        del state["_option"]
+        return state
+
+    def __setstate__(self, state: dict[str, object]) -> None:
+        self.__dict__.update(state)
+        self._option = self._scene_option()
 
     def _make_renderer(self) -> mujoco.Renderer:
         renderer = mujoco.Renderer(self._model, self.spec.height, self.spec.width)

@@ -223,3 +223,28 @@ def test_camera_envs_in_subprocesses_with_the_default_start_method(body, tmp_pat
         [sys.executable, str(script)], capture_output=True, text=True, timeout=180
     )
     assert result.returncode == 0 and "OK" in result.stdout, result.stderr[-3000:]
+
+
+@pytest.mark.parametrize("how", ["pickle", "deepcopy"])
+def test_env_with_renderers_pickles_and_the_copy_continues_bit_for_bit(how):
+    import copy
+    import pickle
+
+    env = gym.make(
+        "BubbleRob-v0", camera=True, render_mode="rgb_array", render_width=64, render_height=64
+    )
+    env.reset(seed=5)
+    actions = np.random.default_rng(0).uniform(-1, 1, (20, 2)).astype(np.float32)
+    for action in actions[:10]:
+        env.step(action)
+    env.render()  # both renderers now hold OpenGL contexts
+    clone = pickle.loads(pickle.dumps(env)) if how == "pickle" else copy.deepcopy(env)
+    for action in actions[10:]:
+        obs_a, reward_a, *_ = env.step(action)
+        obs_b, reward_b, *_ = clone.step(action)
+        assert reward_a == reward_b
+        for key in obs_a:
+            np.testing.assert_array_equal(obs_a[key], obs_b[key])
+    np.testing.assert_array_equal(env.render(), clone.render())
+    env.close()
+    clone.close()
