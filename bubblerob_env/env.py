@@ -114,15 +114,30 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
     at rest. A scene given by ``xml_file`` is used as is, plus the random obstacles.
 
     ## Episode End
-    Terminates when the robot touches a wall or obstacle (if ``terminate_on_collision``).
-    Truncates at the time limit (``max_episode_steps=1000``, 50 s, set at registration).
+    Terminates when the robot touches a wall or obstacle (if ``terminate_on_collision``): any
+    MuJoCo contact between a robot geom and a wall or obstacle geom. Truncates at the time limit
+    (``max_episode_steps=1000``, 50 s, set at registration), or when MuJoCo reports that the
+    simulation diverged (``info["physics_diverged"]`` says why). On the last step of an episode
+    ``info["is_success"]`` tells whether it reached the time limit without any collision (set by
+    :class:`~bubblerob_env.wrappers.EpisodeSuccess`, which ``gym.make`` applies).
 
     ## Arguments
     Every argument below is a keyword argument of ``gym.make("BubbleRob-v0", ...)``; unknown ones
-    raise ``TypeError`` listing the valid names. See ``__init__`` for each one's meaning.
+    raise ``TypeError`` in Python's wording ("got an unexpected keyword argument 'x'") followed by
+    the valid names, and bad values raise ``ValueError`` naming the value and what is allowed.
+    See ``__init__`` for each one's meaning.
 
     ## Version History
-    - v0: initial version.
+    - v0 (2026-11-24 revision): obstacles are solid. Before, each obstacle slot was a geom of the
+      world body moved after compilation, and MuJoCo's midphase kept its compile-time bounding
+      box, so 17 of the 20 slots let the robot drive through (148 of 182 drives at obstacles).
+      Each slot is now a mocap body. Also: ``info["is_success"]`` on the last step; bad
+      ``start_pose``, non-finite reward weights, physics steps over 0.05 s, image sizes outside
+      [1, 4096] and more than 256 obstacles are rejected; a diverged simulation truncates;
+      ``metadata["render_fps"]`` is ``1 / control_timestep``; the camera's OpenGL context is made
+      on first use (fork-safe) and the env pickles. The id stays v0: no release had the old world
+      as a documented behaviour worth keeping, and every result measured on it was re-measured.
+    - v0 (2026-11-23): initial version.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 20}
