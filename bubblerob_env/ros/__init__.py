@@ -1,47 +1,28 @@
-"""ROS-typed messages and bags for BubbleRob (the ``ros`` extra; the env never imports it).
+"""ROS-typed messages, bags and a live node for BubbleRob (the ``ros`` extra).
 
-- :mod:`~bubblerob_env.ros.topics`: topic names and presets.
-- :mod:`~bubblerob_env.ros.convert`: env frames -> ``rosbags`` messages (pure).
-- :mod:`~bubblerob_env.ros.encode`, :mod:`~bubblerob_env.ros.serialize`: fast serialisation,
-  once per distro, fanned out to sinks; :mod:`~bubblerob_env.ros.batch`: bag frames converted and
-  packed many at a time.
-- :mod:`~bubblerob_env.ros.episodes`: episode frames stamped in simulated time.
-- :mod:`~bubblerob_env.ros.sinks`: ROS 1 ``.bag`` and ROS 2 MCAP / sqlite3 bag files.
-- :mod:`~bubblerob_env.ros.recorder`: the ``RosBagRecorder`` wrapper.
-- :mod:`~bubblerob_env.ros.bagread`, :mod:`~bubblerob_env.ros.replay`: reading bags back, replay.
-- :mod:`~bubblerob_env.ros.live`: ``bubblerob node`` and the ``RosLivePublisher`` wrapper (live
-  ROS 1 through ``rospy``; ROS 2 through ``rclpy``, untested).
+The env never imports it. The public interface: :class:`RosBagRecorder` (record any loop into
+a ROS 1 or ROS 2 bag), :func:`recorded_env_fns` (one bag per sub-env of a vector env),
+:class:`RosLivePublisher` (publish any loop on a live ROS graph), :func:`replay_bag`
+(re-simulate a bag and compare), :func:`read_summary` (what a bag holds) and :class:`Topics`
+(topic names). The rest is plumbing, in subpackages by job (``docs/ARCHITECTURE.md``):
+``messages`` (what the messages are), ``fastpath`` (frames -> bytes), ``bags`` (where bytes go),
+``readback`` (bags -> summary, replay) and ``live`` (the node).
 """
 
 from __future__ import annotations
 
-from bubblerob_env.ros.convert import EnvSpecs, RosConverter
-from bubblerob_env.ros.distros import DISTROS
-from bubblerob_env.ros.episodes import EpisodeStream
-from bubblerob_env.ros.live import LiveSink, RosLivePublisher, SimNode
+from bubblerob_env.ros.live.wrapper import RosLivePublisher
+from bubblerob_env.ros.messages.topics import Topics
+from bubblerob_env.ros.readback.replay import replay_bag
+from bubblerob_env.ros.readback.summary import BagSummary, read_summary
 from bubblerob_env.ros.recorder import RosBagRecorder, recorded_env_fns
-from bubblerob_env.ros.serialize import FrameSerializer, MessageFanout
-from bubblerob_env.ros.sinks import COMPRESSIONS, FORMATS, BagPathError, BagSink, open_bag
-from bubblerob_env.ros.topics import PRESETS, Topics, topics_preset
 
 __all__ = [
-    "COMPRESSIONS",
-    "DISTROS",
-    "FORMATS",
-    "PRESETS",
-    "BagPathError",
-    "BagSink",
-    "EnvSpecs",
-    "EpisodeStream",
-    "FrameSerializer",
-    "LiveSink",
-    "MessageFanout",
+    "BagSummary",
     "RosBagRecorder",
-    "RosConverter",
     "RosLivePublisher",
-    "SimNode",
     "Topics",
-    "open_bag",
+    "read_summary",
     "recorded_env_fns",
-    "topics_preset",
+    "replay_bag",
 ]

@@ -13,11 +13,11 @@ import gymnasium as gym
 import numpy as np
 
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
-from bubblerob_env.ros.bagread import read_summary
+from bubblerob_env.ros.bags.sinks import COMPRESSIONS, FORMATS
+from bubblerob_env.ros.messages.topics import PRESETS, topics_preset
+from bubblerob_env.ros.readback.replay import ReplayError, replay_bag
+from bubblerob_env.ros.readback.summary import read_summary
 from bubblerob_env.ros.recorder import RosBagRecorder
-from bubblerob_env.ros.replay import ReplayError, replay_bag
-from bubblerob_env.ros.sinks import COMPRESSIONS, FORMATS
-from bubblerob_env.ros.topics import PRESETS, topics_preset
 
 __all__ = ["add_subcommands"]
 

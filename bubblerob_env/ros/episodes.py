@@ -3,7 +3,7 @@
 :class:`EpisodeStream` stamps an episode's frames ``start + info["sim_time"]``, starts each
 episode one control step after the previous one ended (so that stamps increase strictly across
 episodes), numbers the frames, and sends them with the episode's metadata record (and
-``/tf_static`` first) to a :class:`~bubblerob_env.ros.serialize.MessageFanout`. The
+``/tf_static`` first) to a :class:`~bubblerob_env.ros.fastpath.serializer.MessageFanout`. The
 :class:`~bubblerob_env.ros.recorder.RosBagRecorder` and the
 :class:`~bubblerob_env.ros.live.wrapper.RosLivePublisher` both write through one, so that a live
 run and a recording of the same seeds and actions carry the same stamps.
@@ -14,11 +14,52 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any, SupportsFloat
 
+import gymnasium as gym
+import numpy as np
 from numpy.typing import NDArray
 
-from bubblerob_env.ros.serialize import MessageFanout
+from bubblerob_env.ros.bags.fanout import MessageFanout
 
-__all__ = ["EpisodeStream"]
+__all__ = ["RESERVED_KEYS", "EpisodeStream", "env_metadata", "jsonable"]
+
+RESERVED_KEYS = frozenset({
+    "episode", "seed", "rng_state", "options", "env_id", "env_kwargs", "max_episode_steps",
+    "start_time_ns", "first_seq", "dt", "distro", "format", "topics", "bubblerob_version",
+})  # fmt: skip
+"""Keys of an episode's metadata that :meth:`EpisodeStream.reset` sets; users' facts may not."""
+
+
+def jsonable(value: Any) -> Any:
+    """``value`` as JSON data: numpy arrays and scalars as lists and numbers, the rest as text."""
+    if isinstance(value, Mapping):
+        return {str(k): jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return value
+    return str(value)  # paths and the like
+
+
+def env_metadata(env: gym.Env[Any, Any]) -> dict[str, Any]:
+    """How to re-create ``env``: its registered id, constructor kwargs and step limit."""
+    spec = env.spec
+    if spec is None:
+        return {"env_id": None, "env_kwargs": {}, "max_episode_steps": None}
+    return {
+        "env_id": spec.id,
+        "env_kwargs": jsonable(spec.kwargs),
+        "max_episode_steps": spec.max_episode_steps,
+    }
+
+
+def _version() -> str:
+    from bubblerob_env import __version__
+
+    return __version__
 
 
 class EpisodeStream:
@@ -34,6 +75,8 @@ class EpisodeStream:
         self.dt_ns = dt_ns
         self.seq = 0
         """Sequence number of the next frame (never restarts)."""
+        self.episodes = 0
+        """Episodes begun by :meth:`reset` so far (the next one's number)."""
         self.last_ns: int | None = None
         """Stamp of the latest frame; ``None`` before the first (or after :meth:`restart`)."""
         self._offset_ns = 0
@@ -45,6 +88,40 @@ class EpisodeStream:
     def next_start(self) -> int:
         """The stamp the next episode's first frame will get."""
         return 0 if self.last_ns is None else self.last_ns + self.dt_ns
+
+    def reset(
+        self,
+        env: gym.Env[Any, Any],
+        seed: int | None,
+        options: dict[str, Any] | None,
+        facts: Mapping[str, Any],
+    ) -> tuple[Any, dict[str, Any], dict[str, Any]]:
+        """Reset ``env`` and begin an episode: ``(obs, info, the episode's metadata)``.
+
+        The metadata, the one definition of an episode's record: its number, the seed (or, for an
+        unseeded reset, the state of the env's generator, which replay restores), the options,
+        how to re-create the env, the start stamp and first sequence number, the step length,
+        then ``facts`` (the writer's: distro, format, topics, users' facts).
+        """
+        rng_state = None
+        if seed is None:  # replay restores the generator instead of seeding it
+            rng_state = jsonable(env.unwrapped.np_random.bit_generator.state)
+        obs, info = env.reset(seed=seed, options=options)
+        metadata = {
+            "episode": self.episodes,
+            "seed": seed,
+            "rng_state": rng_state,
+            "options": jsonable(options),
+            **env_metadata(env),
+            "start_time_ns": self.next_start(),
+            "first_seq": self.seq,
+            "dt": float(env.unwrapped.dt),  # type: ignore[attr-defined]
+            "bubblerob_version": _version(),
+            **jsonable(facts),
+        }
+        self.begin(obs, info, metadata)
+        self.episodes += 1
+        return obs, info, metadata
 
     def begin(
         self, obs: Mapping[str, NDArray[Any]], info: Mapping[str, Any], metadata: Mapping[str, Any]

@@ -13,14 +13,11 @@ from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
-import numpy as np
 from numpy.typing import NDArray
 
-from bubblerob_env.ros import safety
-from bubblerob_env.ros.convert import EnvSpecs
-from bubblerob_env.ros.episodes import EpisodeStream
-from bubblerob_env.ros.serialize import MessageFanout
-from bubblerob_env.ros.sinks import (
+from bubblerob_env.ros.bags import safety
+from bubblerob_env.ros.bags.fanout import MessageFanout
+from bubblerob_env.ros.bags.sinks import (
     DEFAULT_DISTRO,
     FORMATS,
     BagSink,
@@ -28,13 +25,14 @@ from bubblerob_env.ros.sinks import (
     open_bag,
     remove_bag,
 )
-from bubblerob_env.ros.topics import Topics
+from bubblerob_env.ros.episodes import RESERVED_KEYS, EpisodeStream, jsonable
+from bubblerob_env.ros.messages.topics import Topics
+from bubblerob_env.specs import EnvSpecs
 
 __all__ = [
     "EPISODES_KEY",
     "RECORDING_KEY",
     "RosBagRecorder",
-    "env_metadata",
     "recorded_env_fns",
 ]
 
@@ -46,44 +44,12 @@ RECORDING_KEY = "bubblerob.recording"
 _SUMMARY_KEYS = ("episode", "seed", "start_time_ns")
 _SHARED_KEYS = ("episode", "seed", "rng_state", "options", "start_time_ns", "first_seq")
 
-_RESERVED = {
-    "episode", "seed", "rng_state", "options", "env_id", "env_kwargs", "max_episode_steps",
-    "start_time_ns", "first_seq", "dt", "distro", "format", "topics", "bubblerob_version",
-}  # fmt: skip
-
-
-def _jsonable(value: Any) -> Any:
-    if isinstance(value, Mapping):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    if value is None or isinstance(value, (bool, int, float, str)):
-        return value
-    return str(value)  # paths and the like
-
-
-def env_metadata(env: gym.Env[Any, Any]) -> dict[str, Any]:
-    """How to re-create ``env``: its registered id, constructor kwargs and step limit."""
-    spec = env.spec
-    if spec is None:
-        return {"env_id": None, "env_kwargs": {}, "max_episode_steps": None}
-    return {
-        "env_id": spec.id,
-        "env_kwargs": _jsonable(spec.kwargs),
-        "max_episode_steps": spec.max_episode_steps,
-    }
-
-
 class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
     """Record every ``reset`` and ``step`` of a BubbleRob env into a ROS bag.
 
     The bag is created when the wrapper is (so a bad path fails before the first step) and
     finished by :meth:`close`, or, if the program dies of an exception, Ctrl-C or SIGTERM first,
-    by :mod:`~bubblerob_env.ros.safety`; either way it holds every completed step. A recorder
+    by :mod:`~bubblerob_env.ros.bags.safety`; either way it holds every completed step. A recorder
     closed before its first ``reset`` removes its empty bag: ``AsyncVectorEnv`` makes and closes
     one env only to read the spaces, and its worker must be able to create the same bag.
 
@@ -114,7 +80,7 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
             distro: ``"jazzy"`` (default) or ``"humble"`` for ROS 2 formats, ``"noetic"`` for ROS 1.
             compression: MCAP: ``"zstd"`` (default) or ``"none"``; ROS 1: ``"none"`` (default),
                 ``"bz2"`` or ``"lz4"``.
-            topics: Topic names (default :class:`~bubblerob_env.ros.topics.Topics`).
+            topics: Topic names (default :class:`~bubblerob_env.ros.messages.topics.Topics`).
             overwrite: Replace existing bags instead of raising ``FileExistsError``.
             metadata: JSON-able facts stored with every episode, e.g. ``{"policy": "reactive"}``.
             per_episode: One bag per episode instead of one for all.
@@ -128,8 +94,8 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
         self.topics = topics or Topics()
         self.overwrite = overwrite
         self.per_episode = per_episode
-        self.metadata = dict(_jsonable(metadata or {}))
-        clash = sorted(_RESERVED & set(self.metadata))
+        self.metadata = dict(jsonable(metadata or {}))
+        clash = sorted(RESERVED_KEYS & set(self.metadata))
         if clash:
             raise ValueError(f"metadata keys {clash} are reserved for the recorder")
         self.path = Path(path)
@@ -206,29 +172,10 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
             if self.per_episode and self._episode_count > 0:
                 self._close_bag()
                 self._open_bag(self._episode_count)
-            rng_state = None
-            if seed is None:  # replay restores the generator instead of seeding it
-                rng_state = _jsonable(self.env.unwrapped.np_random.bit_generator.state)
-            obs, info = self.env.reset(seed=seed, options=options)
-            start = self._stream.next_start()
-            episode = {
-                "episode": self._episode_count,
-                "seed": seed,
-                "rng_state": rng_state,
-                "options": _jsonable(options),
-                **env_metadata(self.env),
-                "start_time_ns": start,
-                "first_seq": self._stream.seq,
-                "dt": self._dt,
-                "distro": self.distro,
-                "format": self.format,
-                "topics": self.topics.to_dict(),
-                "bubblerob_version": _version(),
-                **self.metadata,
-            }
+            facts = {"distro": self.distro, "format": self.format, "topics": self.topics.to_dict()}
+            obs, info, episode = self._stream.reset(self.env, seed, options, facts | self.metadata)
             self._episodes.append(episode)
             self._episode_count += 1
-            self._stream.begin(obs, info, episode)
         return obs, info
 
     def step(self, action: NDArray[Any]) -> tuple[Any, float, bool, bool, dict[str, Any]]:
@@ -249,12 +196,6 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
             self._finish()
         finally:
             super().close()
-
-
-def _version() -> str:
-    from bubblerob_env import __version__
-
-    return __version__
 
 
 def recorded_env_fns(

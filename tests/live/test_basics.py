@@ -127,7 +127,7 @@ def test_decode_control_ros1():
 
 
 def test_decode_control_cdr():
-    from bubblerob_env.ros.distros import typestore
+    from bubblerob_env.ros.messages.distros import typestore
 
     store = typestore("jazzy")
     t = store.types

@@ -12,7 +12,7 @@ import gymnasium as gym
 import numpy as np
 from rosbags.highlevel import AnyReader
 
-from bubblerob_env.ros.bagread import bag_root
+from bubblerob_env.ros.readback.summary import bag_root
 
 FORMAT_CASES = [
     ("mcap", "zstd"),

@@ -8,7 +8,8 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from bubblerob_env.ros.convert import EnvSpecs, RosConverter
+from bubblerob_env.ros.messages.convert import RosConverter
+from bubblerob_env.specs import EnvSpecs
 
 
 @pytest.fixture

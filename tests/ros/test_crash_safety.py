@@ -17,7 +17,7 @@ from mcap.stream_reader import StreamReader
 from ros_helpers import FORWARD, missing_debian_ros, read_all, run_debian
 
 from bubblerob_env.ros import RosBagRecorder
-from bubblerob_env.ros.bagread import read_summary
+from bubblerob_env.ros.readback.summary import read_summary
 
 CHILD = textwrap.dedent(
     """

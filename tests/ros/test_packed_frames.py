@@ -9,9 +9,12 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from bubblerob_env.ros import RosBagRecorder
-from bubblerob_env.ros.sinks import BagSink
-from bubblerob_env.ros.writers import Framing, Record
+from bubblerob_env.ros.bags.fanout import MessageFanout
+from bubblerob_env.ros.bags.sinks import BagSink, open_bag
+from bubblerob_env.ros.episodes import EpisodeStream
+from bubblerob_env.ros.fastpath.framing import Framing, Record
+from bubblerob_env.ros.messages.topics import Topics
+from bubblerob_env.specs import EnvSpecs
 
 
 class _Collect(BagSink):
@@ -31,6 +34,26 @@ class _Collect(BagSink):
         self.closed = True
 
 
+class _RecordsOnly(BagSink):
+    """A bag sink that declares no framing: it gets records, never packed frames."""
+
+    def __init__(self, sink: BagSink) -> None:
+        super().__init__(sink.path, sink.format, sink.distro)
+        self.sink = sink
+
+    def add_topic(self, topic: str, msgtype: str, latched: bool = False) -> None:
+        self.sink.add_topic(topic, msgtype, latched)
+
+    def write_batch(self, records: Sequence[Record]) -> None:
+        self.sink.write_batch(records)
+
+    def flush(self) -> None:
+        self.sink.flush()
+
+    def close(self) -> None:
+        self.sink.close()
+
+
 def _record(
     path: Path,
     fmt: str,
@@ -40,38 +63,38 @@ def _record(
     collect: bool = False,
     **env_kwargs: object,
 ) -> tuple[Path, list[Record]]:
-    """Record three episodes; ``mode``: "batched", "packed" (frame by frame) or "records"."""
+    """Record three episodes as a recorder does; ``mode``: "batched", "packed" (frame by frame)
+    or "records"."""
     env = gym.make("BubbleRob-v0", max_episode_steps=70, **env_kwargs)
-    recorder = RosBagRecorder(env, path, format=fmt, compression=compression)
-    sink = recorder._sink
-    fanout = recorder._fanout
-    assert sink is not None and sink.framing() is not None
-    writer = sink._writer  # type: ignore[attr-defined]
-    if fmt == "ros1":
-        writer.chunk_threshold = chunk_bytes
-    elif fmt == "mcap":
-        writer.storage.CHUNK_SIZE = chunk_bytes
-    if mode == "records":  # the record-by-record path
-        sink.framing = lambda: None  # type: ignore[method-assign]
-    fanout.batch_frames = {"batched": 7, "packed": 0, "records": 0}[mode]
-    fanout._update_routes(sink.distro)
-    assert (fanout._batch is not None) == (mode == "batched")
+    bag = open_bag(path, fmt, compression=compression, chunk_size=chunk_bytes)
+    assert bag.framing() is not None
+    sink = _RecordsOnly(bag) if mode == "records" else bag  # the record-by-record path
+    batch_frames = {"batched": 7, "packed": 0, "records": 0}[mode]
+    fanout = MessageFanout(EnvSpecs.from_env(env), Topics(), batch_frames=batch_frames)
+    fanout.add_sink(sink)
+    assert fanout.batching == (mode == "batched")
     records: list[Record] = []
     if collect:
-        collector = _Collect(recorder.distro)
+        collector = _Collect(bag.distro)
         fanout.add_sink(collector)
         records = collector.records
-        assert fanout._batch is None  # a sink without framing turns batching off
+        assert not fanout.batching  # a sink without framing turns batching off
+    stream = EpisodeStream(fanout, round(float(env.unwrapped.dt) * 1e9))
     rng = np.random.default_rng(3)
     for episode in range(3):
-        recorder.reset(seed=episode)
+        stream.reset(env, episode, None, {"format": fmt})
         for _ in range(int(rng.integers(20, 90))):
             action = rng.uniform(-0.3, 1.0, size=2).astype(np.float32)
-            _, _, terminated, truncated, _ = recorder.step(action)
+            obs, reward, terminated, truncated, info = env.step(action)
+            stream.step(obs, info, action, reward, terminated, truncated)
             if terminated or truncated:
+                fanout.flush()
+                sink.flush()
                 break
-    recorder.close()
-    return recorder.bag_paths[0], records
+    fanout.remove_sink(sink)
+    sink.close()
+    env.close()
+    return bag.path, records
 
 
 def _assert_same_bags(a: Path, b: Path, fmt: str) -> None:

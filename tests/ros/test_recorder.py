@@ -11,9 +11,10 @@ import pytest
 from ros_helpers import FORMAT_CASES, FORWARD, drive, read_all
 
 from bubblerob_env.ros import RosBagRecorder, Topics, recorded_env_fns
-from bubblerob_env.ros.bagread import read_summary
-from bubblerob_env.ros.convert import EnvSpecs, RosConverter
-from bubblerob_env.ros.sinks import BagPathError, bag_path
+from bubblerob_env.ros.bags.sinks import BagPathError, bag_path
+from bubblerob_env.ros.messages.convert import RosConverter
+from bubblerob_env.ros.readback.summary import read_summary
+from bubblerob_env.specs import EnvSpecs
 
 STEP_TOPICS = ("/cmd_vel", "/leftMotorSpeed", "/rightMotorSpeed", "/bubblerob/action", "/reward")
 

@@ -11,7 +11,7 @@ from rosbags.highlevel import AnyReader
 from rosbags.rosbag2 import StoragePlugin
 
 from bubblerob_env.ros import RosBagRecorder
-from bubblerob_env.ros.replay import ReplayError, replay_bag
+from bubblerob_env.ros.readback.replay import ReplayError, replay_bag
 
 NOISY = {"laser_noise_std": 0.01, "max_episode_steps": 12}
 

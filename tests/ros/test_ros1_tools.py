@@ -8,7 +8,8 @@ import textwrap
 import pytest
 from ros_helpers import missing_debian_ros, read_all, run_debian
 
-from bubblerob_env.ros import ros1_defs
+from bubblerob_env.ros.messages.distros import message_definition
+from bubblerob_env.ros.messages.topics import MSGTYPES
 
 pytestmark = pytest.mark.skipif((reason := missing_debian_ros()) is not None, reason=reason or "")
 
@@ -61,6 +62,8 @@ def test_debian_rosbag_python_api_reads_every_message(record, tmp_path, compress
 
 
 def test_vendored_definitions_are_debians():
+    # Every type a bag or the live node carries: full texts from the .msg files, md5 by rosbags.
+    types = sorted({*MSGTYPES.values(), "std_msgs/msg/Int32"})
     script = textwrap.dedent(
         """
         import importlib, json, sys
@@ -72,9 +75,11 @@ def test_vendored_definitions_are_debians():
         print(json.dumps(out))
         """
     )
-    result = run_debian("/usr/bin/python3", "-c", script, json.dumps(list(ros1_defs.FULL_TEXT)))
+    names = [t.replace("/msg/", "/") for t in types]
+    result = run_debian("/usr/bin/python3", "-c", script, json.dumps(names))
     assert result.returncode == 0, result.stderr
     debian = json.loads(result.stdout)
-    for name, (text, md5sum) in debian.items():
-        assert ros1_defs.FULL_TEXT[name] == text, name
-        assert ros1_defs.MD5SUM[name] == md5sum, name
+    assert len(debian) == len(types) == 14
+    for msgtype, name in zip(types, names, strict=True):
+        text, md5sum = message_definition("noetic", msgtype)
+        assert [text, md5sum] == debian[name], name

@@ -13,9 +13,9 @@ import pytest
 from rosbags import rosbag1, rosbag2
 from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin
 
-from bubblerob_env.ros.distros import typestore
-from bubblerob_env.ros.sinks import BagPathError, open_bag
-from bubblerob_env.ros.writers import Ros1Writer, Rosbag2Writer, roslz4_compress
+from bubblerob_env.ros.bags.sinks import BagPathError, open_bag
+from bubblerob_env.ros.bags.writers import Ros1Writer, Rosbag2Writer, roslz4_compress
+from bubblerob_env.ros.messages.distros import typestore
 
 TOPICS = ("/a", "/b")
 

@@ -1,12 +1,12 @@
 """Bag files that serialised messages go to: ROS 1 ``.bag`` and ROS 2 MCAP or sqlite3.
 
 A sink takes messages already serialised for its distro, in batches (one batch per env frame),
-and writes them with the ``rosbags`` writers (batched, see :mod:`~bubblerob_env.ros.writers`).
+and writes them with the ``rosbags`` writers (batched, see :mod:`~bubblerob_env.ros.bags.writers`).
 MCAP and ROS 1 sinks also take *packed frames*: a frame's records, headers included, in one byte
 string laid out by the sink's :meth:`BagSink.framing`.
 A bag becomes readable by every tool when :meth:`BagSink.close` writes its index; the recorder
 closes it from its ``close``, an ``atexit`` hook and its signal handlers
-(:mod:`~bubblerob_env.ros.safety`). :meth:`BagSink.flush` puts everything so far on disk after
+(:mod:`~bubblerob_env.ros.bags.safety`). :meth:`BagSink.flush` puts everything so far on disk after
 each episode, so that even a hard kill loses at most the current episode (``rosbag reindex``,
 ``mcap recover`` or ``ros2 bag reindex`` restore the index).
 """
@@ -30,17 +30,14 @@ from rosbags.interfaces import (
 )
 from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin
 
-from bubblerob_env.ros.distros import get_distro, message_definition
-from bubblerob_env.ros.writers import (
-    FrameLayout,
-    Framing,
+from bubblerob_env.ros.bags.writers import (
     PackedBatchWriter,
     PackedWriter,
-    Record,
     Ros1Writer,
     Rosbag2Writer,
-    mcap_zstd_compress,
 )
+from bubblerob_env.ros.fastpath.framing import FrameLayout, Framing, Record
+from bubblerob_env.ros.messages.distros import get_distro, message_definition
 
 __all__ = [
     "COMPRESSIONS",
@@ -49,7 +46,6 @@ __all__ = [
     "FORMATS",
     "BagPathError",
     "BagSink",
-    "Record",
     "bag_path",
     "open_bag",
     "remove_bag",
@@ -167,10 +163,12 @@ class BagSink:
 
 
 class _Ros1Sink(BagSink):
-    def __init__(self, path: Path, distro: str, compression: str) -> None:
+    def __init__(self, path: Path, distro: str, compression: str, chunk_size: int | None) -> None:
         super().__init__(path, "ros1", distro)
         self._ids: dict[str, int] = {}
         self._writer = Ros1Writer(path)
+        if chunk_size is not None:
+            self._writer.set_chunk_size(chunk_size)
         if compression != "none":
             self._writer.set_compression(rosbag1.Writer.CompressionFormat[compression.upper()])
         self._writer.open()
@@ -235,7 +233,9 @@ def _qos(latched: bool) -> list[Qos]:
 
 
 class _Rosbag2Sink(BagSink):
-    def __init__(self, path: Path, fmt: str, distro: str, compression: str) -> None:
+    def __init__(
+        self, path: Path, fmt: str, distro: str, compression: str, chunk_size: int | None
+    ) -> None:
         super().__init__(path, fmt, distro)
         self._ids: dict[str, int] = {}
         plugin = StoragePlugin.MCAP if fmt == "mcap" else StoragePlugin.SQLITE3
@@ -243,8 +243,9 @@ class _Rosbag2Sink(BagSink):
         if compression == "zstd":  # MCAP chunk compression, as `ros2 bag record` does it
             self._writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
         self._writer.open()
-        if compression == "zstd":
-            self._writer.storage.compressor = mcap_zstd_compress  # type: ignore[union-attr]
+        self._writer.compress_at_level_1()  # as `ros2 bag record` does
+        if chunk_size is not None:
+            self._writer.set_chunk_size(chunk_size)
 
     def add_topic(self, topic: str, msgtype: str, latched: bool = False) -> None:
         text, digest = message_definition(self.distro, msgtype)
@@ -288,6 +289,7 @@ def open_bag(
     distro: str | None = None,
     compression: str | None = None,
     overwrite: bool = False,
+    chunk_size: int | None = None,
 ) -> BagSink:
     """Create a bag and open it for writing.
 
@@ -298,6 +300,8 @@ def open_bag(
             (default) or ``"humble"`` for the ROS 2 formats.
         compression: See :data:`COMPRESSIONS`; default: the format's first.
         overwrite: Replace an existing bag instead of raising ``FileExistsError``.
+        chunk_size: MCAP and ROS 1: a chunk closes once it holds more than this many bytes
+            (default: ``rosbags``' sizes, 1 MiB for MCAP and 768 KiB for ROS 1).
 
     Raises:
         FileExistsError: The bag exists and ``overwrite`` is false.
@@ -320,8 +324,8 @@ def open_bag(
     _prepare(target, overwrite)
     try:
         if fmt == "ros1":
-            return _Ros1Sink(target, distro, compression)
-        return _Rosbag2Sink(target, fmt, distro, compression)
+            return _Ros1Sink(target, distro, compression, chunk_size)
+        return _Rosbag2Sink(target, fmt, distro, compression, chunk_size)
     except (OSError, sqlite3.Error, rosbag1.WriterError, rosbag2.WriterError) as error:
         if target.is_dir() and not any(target.iterdir()):
             target.rmdir()  # do not leave an empty "bag" behind

@@ -1,4 +1,4 @@
-"""``rosbags``' bag writers with batch writes, writing the files ``rosbags`` writes.
+"""``rosbags``' bag writers with batch writes and packed frames: the one module on its internals.
 
 Writing one message costs a ``rosbags`` writer a few microseconds; a recorder writes ~15 per env
 step. These subclasses take a whole frame at once straight into the open chunk (MCAP, ROS 1) or one
@@ -6,60 +6,115 @@ step. These subclasses take a whole frame at once straight into the open chunk (
 (``tests/ros/test_sinks.py`` checks), with two deliberate differences in ROS 1 bags: LZ4 chunks
 use the frame options Debian's ``roslz4`` requires, and the bag header record has rosbag's size
 (the first chunk starts 8 bytes later), so that ``rosbag reindex`` can rewrite it in place.
-
 Faster still, MCAP and ROS 1 take *packed frames* (:meth:`Ros1Writer.write_packed`,
-:meth:`Rosbag2Writer.write_packed`, see :mod:`~bubblerob_env.ros.framing`); the MCAP storage is
-in :mod:`~bubblerob_env.ros.mcap_storage`.
+:meth:`Rosbag2Writer.write_packed`, see :mod:`~bubblerob_env.ros.fastpath.framing`), appended with
+one write each and indexed when their chunk closes.
+
+Every use of ``rosbags``' private API (classes of ``rosbags.rosbag1.writer`` and its storages,
+attributes of its writers) is in this module, and :data:`RELIED_ON` lists it:
+``tests/ros/test_rosbags_internals.py`` fails loudly when a ``rosbags`` release changes any of it.
+``pyproject.toml`` pins ``rosbags`` to the tested range.
 """
 
 from __future__ import annotations
 
 import struct
+import sys
 from collections import defaultdict
 from collections.abc import Callable, Sequence
 from io import BytesIO
+from pathlib import Path
 from typing import Any, BinaryIO
 
-import lz4.frame  # type: ignore[import-untyped]
+import lz4.frame
 import numpy as np
 from numpy.typing import NDArray
 from rosbags import rosbag1, rosbag2
-from rosbags.rosbag1.writer import MAXSIZE, Header, RecordType, WriteChunk
-from rosbags.rosbag2 import StoragePlugin
+from rosbags.rosbag1 import writer as _rosbag1_writer
+from rosbags.rosbag1.reader import RecordType
+from rosbags.rosbag1.writer import Header, WriteChunk
+from rosbags.rosbag2 import CompressionMode, StoragePlugin
+from rosbags.rosbag2.storage_mcap import McapWriter, PendingChunk
 from rosbags.rosbag2.storage_sqlite3 import Sqlite3Writer
 
-from bubblerob_env.ros.framing import (
-    LOG_SLOTS,
+from bubblerob_env.ros.fastpath.framing import (
+    NO_TIME,
     Frame,
     FrameLayout,
-    Framing,
     Record,
     append_batch,
     index_entries,
     index_frames,
+    record_header,
 )
-from bubblerob_env.ros.mcap_storage import McapStorage, mcap_zstd_compress
+
+if sys.version_info >= (3, 14):  # the zstd that rosbags uses
+    from compression import zstd
+else:  # pragma: no cover
+    from backports import zstd
 
 __all__ = [
-    "LOG_SLOTS",
-    "FrameLayout",
-    "Framing",
+    "RELIED_ON",
     "PackedBatchWriter",
     "PackedWriter",
-    "Record",
     "Ros1Writer",
     "Rosbag2Writer",
-    "mcap_zstd_compress",
     "roslz4_compress",
 ]
+
+RELIED_ON: dict[Any, tuple[str, ...]] = {
+    rosbag1.Writer: (
+        "bio", "chunks", "chunk_threshold", "compressor", "compression_format", "connections",
+        "write_connection", "write_chunk", "set_compression", "open", "close",
+    ),
+    WriteChunk: ("data", "pos", "start", "end", "connections"),
+    Header: ("set_string", "set_uint32", "set_uint64", "set_time", "write"),
+    RecordType: ("BAGHEADER", "CHUNK", "CHUNK_INFO", "IDXDATA"),
+    rosbag2.Writer: (
+        "STORAGE_PLUGINS", "storage", "counts", "min_timestamp", "max_timestamp", "open", "close",
+    ),
+    McapWriter: (
+        "bio", "chunk", "chunks", "channel_stats", "compression", "compressor", "close_chunk",
+        "message_start_time", "message_end_time",
+    ),
+    PendingChunk: ("message_start_time", "message_end_time", "bio", "msgs"),
+    Sqlite3Writer: ("cursor", "conn"),
+}  # fmt: skip
+"""Names of ``rosbags``' private API this module uses, per class (instance attributes included)."""
+
+
+def rosbags_changes() -> list[str]:
+    """What of :data:`RELIED_ON` the installed ``rosbags`` lacks (empty: nothing changed).
+
+    Instance attributes are looked up on a freshly opened writer of each kind.
+    """
+    import tempfile
+
+    missing = []
+    if _rosbag1_writer.MAXSIZE != NO_TIME:
+        missing.append(f"rosbag1.writer.MAXSIZE is {_rosbag1_writer.MAXSIZE}, not {NO_TIME}")
+    with tempfile.TemporaryDirectory() as tmp:
+        ros1 = rosbag1.Writer(Path(tmp) / "x.bag")
+        ros1.open()
+        instances: dict[Any, Any] = {rosbag1.Writer: ros1, WriteChunk: ros1.chunks[-1]}
+        for plugin in (StoragePlugin.MCAP, StoragePlugin.SQLITE3):
+            ros2 = rosbag2.Writer(Path(tmp) / plugin.name, version=9, storage_plugin=plugin)
+            ros2.open()
+            instances[rosbag2.Writer] = ros2
+            instances[type(ros2.storage)] = ros2.storage
+            if isinstance(ros2.storage, McapWriter):
+                instances[PendingChunk] = ros2.storage.chunk
+            ros2.close()
+        ros1.close()
+        for owner, names in RELIED_ON.items():
+            where = instances.get(owner, owner)
+            missing += [f"{owner.__qualname__}.{n}" for n in names if not hasattr(where, n)]
+    return missing
 
 PackedWriter = Callable[[bytes, FrameLayout, int, int], None]
 """``write_packed(data, layout, stamp, action_stamp)`` of a writer."""
 PackedBatchWriter = Callable[[Any, FrameLayout, NDArray[np.int64], NDArray[np.int64]], None]
 """``write_packed_batch(data, layout, stamps, action_stamps)``: ``len(stamps)`` packed frames."""
-
-_ROS1_MESSAGE = struct.Struct("<II4sI5sII5sIII")  # header length, op, conn, time; data length
-
 
 def roslz4_compress(data: bytes) -> bytes:
     """LZ4 frame as ROS 1's ``roslz4`` reads it: independent blocks, no content size, checksum.
@@ -107,6 +162,10 @@ class Ros1Writer(rosbag1.Writer):
 
     _frames: list[Frame]
 
+    def set_chunk_size(self, size: int) -> None:
+        """Close each chunk once it holds more than ``size`` bytes."""
+        self.chunk_threshold = size
+
     def set_compression(self, fmt: rosbag1.Writer.CompressionFormat) -> None:
         """Compress chunks with ``fmt`` (bz2, or LZ4 in the frame format roslz4 reads)."""
         super().set_compression(fmt)
@@ -135,7 +194,7 @@ class Ros1Writer(rosbag1.Writer):
             header = Header()
             header.set_uint32("ver", 1)
             header.set_uint64("chunk_pos", chunk.pos)
-            header.set_time("start_time", 0 if chunk.start == MAXSIZE else chunk.start)
+            header.set_time("start_time", 0 if chunk.start == NO_TIME else chunk.start)
             header.set_time("end_time", chunk.end)
             header.set_uint32("count", len(chunk.connections))
             header.write(self.bio, RecordType.CHUNK_INFO)
@@ -187,15 +246,10 @@ class Ros1Writer(rosbag1.Writer):
         for topic, stamp, payload in records:
             cid = ids[topic]
             index[cid].append((stamp, pos))
-            sec, nsec = divmod(stamp, 1_000_000_000)
-            size = len(payload)
-            parts.append(
-                _ROS1_MESSAGE.pack(
-                    38, 4, b"op=\x02", 9, b"conn=", cid, 13, b"time=", sec, nsec, size
-                )
-            )
+            header = record_header("ros1", cid, len(payload), stamp)
+            parts.append(header)
             parts.append(payload)
-            pos += 46 + size
+            pos += len(header) + len(payload)
             if stamp < low:
                 low = stamp
             if stamp > high:
@@ -234,7 +288,7 @@ class Ros1Writer(rosbag1.Writer):
                 # close() only counts them: keep the count, not the entries
                 chunk.connections[cid] = [(0, 0)] * len(entries)
             chunk.data.close()
-            self.chunks.append(WriteChunk(BytesIO(), -1, MAXSIZE, 0, defaultdict(list)))
+            self.chunks.append(WriteChunk(BytesIO(), -1, NO_TIME, 0, defaultdict(list)))
 
     def flush(self) -> None:
         """Write the open chunk and its index records to disk (the bag index waits for close)."""
@@ -289,6 +343,148 @@ class _Sqlite3Storage(Sqlite3Writer):
         self.conn.commit()
 
 
+def mcap_zstd_compress(data: bytes) -> bytes:
+    """Compress with zstd at level 1, the MCAP writer's default (``CompressionLevel::Default``).
+
+    ``rosbags`` compresses MCAP chunks at zstd's own default, 3: on recorded frames that takes
+    ~1.6x the time of level 1 for chunks ~1% smaller.
+    """
+    return zstd.compress(data, level=1)
+
+
+class McapStorage(McapWriter):
+    """``rosbags``' MCAP storage with a batch write and packed frames into the open chunk."""
+
+    CHUNK_SIZE = 2**20
+    """A chunk closes once it holds more than this many bytes (``rosbags``' size)."""
+
+    def __init__(self, path: Path, compression: CompressionMode) -> None:
+        super().__init__(path, compression)
+        self._frames: list[Frame] = []
+        self.counts: dict[int, int] = defaultdict(int)
+        """Messages per channel, the writer's (it replaces this dict with its own)."""
+        self.packed_start, self.packed_end = 2**63 - 1, 0
+        """Lowest and highest log time of the packed frames indexed so far."""
+
+    def write_packed(self, data: bytes, layout: FrameLayout, stamp: int, action_stamp: int) -> None:
+        """Append a packed frame (records framed by ``Framing("mcap", ...)``) to the open chunk.
+
+        Called once per recorded step, so kept to the append: counts and times come with the index
+        (:meth:`index_pending`).
+        """
+        bio = self.chunk.bio
+        pos = bio.tell()
+        self._frames.append((layout, pos, stamp, action_stamp))
+        bio.write(data)
+        if pos + layout.size > self.CHUNK_SIZE:
+            self.close_chunk()
+
+    def write_packed_batch(
+        self, data: Any, layout: FrameLayout, stamps: NDArray[np.int64], action_stamps: Any
+    ) -> None:
+        """Append ``len(stamps)`` packed frames, back to back in ``data`` (a bytes-like object).
+
+        The chunks close where they would frame by frame (:func:`append_batch`).
+        """
+        batch = (data, layout, stamps, action_stamps)
+        append_batch(self._frames, lambda: self.chunk.bio, self.close_chunk, self.CHUNK_SIZE, batch)
+
+    def index_pending(self) -> None:
+        """Index the packed frames written so far and count their messages."""
+        if self._frames:
+            chunk = self.chunk
+            low, high, counts = index_frames(self._frames, chunk.msgs)
+            self._frames.clear()  # in place: append_batch holds the list
+            for cid, count in counts.items():
+                self.channel_stats[cid] += count
+                self.counts[cid] += count
+            chunk.message_start_time = min(chunk.message_start_time, low)
+            chunk.message_end_time = max(chunk.message_end_time, high)
+            self.message_start_time = min(self.message_start_time, low)
+            self.message_end_time = max(self.message_end_time, high)
+            self.packed_start = min(self.packed_start, low)
+            self.packed_end = max(self.packed_end, high)
+
+    def write_many(self, records: Sequence[Record], ids: dict[str, int]) -> tuple[int, int]:
+        """Append ``(topic, stamp, data)`` records; returns their lowest and highest stamps."""
+        self.index_pending()
+        chunk = self.chunk
+        index = chunk.msgs
+        stats = self.channel_stats
+        counts = self.counts
+        pos = chunk.bio.tell()
+        low = high = records[0][1]
+        parts = []
+        for topic, stamp, payload in records:
+            cid = ids[topic]
+            index[cid].append((stamp, pos))
+            header = record_header("mcap", cid, len(payload), stamp)
+            parts.append(header)
+            parts.append(payload)
+            pos += len(header) + len(payload)
+            stats[cid] += 1
+            counts[cid] += 1
+            if stamp < low:
+                low = stamp
+            if stamp > high:
+                high = stamp
+        chunk.bio.write(b"".join(parts))
+        chunk.message_start_time = min(chunk.message_start_time, low)
+        chunk.message_end_time = max(chunk.message_end_time, high)
+        self.message_start_time = min(self.message_start_time, low)
+        self.message_end_time = max(self.message_end_time, high)
+        if pos > self.CHUNK_SIZE:
+            self.close_chunk()
+        return low, high
+
+    def close_chunk(self) -> None:
+        """Compress and write the open chunk, its message indexes, and start a new chunk."""
+        self.index_pending()
+        chunk = self.chunk
+        encoding = self.compression.encode()
+        chunk_start = self.bio.tell()
+        with chunk.bio.getbuffer() as raw:  # no copy of the chunk (released before it goes)
+            compressed = self.compressor(raw)  # type: ignore[arg-type]
+            times = (chunk.message_start_time, chunk.message_end_time)
+            head = struct.pack("<QQQI", *times, len(raw), 0)
+            body = head + struct.pack("<I", len(encoding)) + encoding
+            body += struct.pack("<Q", len(compressed))
+            self.bio.write(struct.pack("<BQ", 0x06, len(body) + len(compressed)) + body)
+            self.bio.write(compressed)
+            raw_size, compressed_size = len(raw), len(compressed)
+            del compressed  # the raw view itself when uncompressed
+        chunk_end = self.bio.tell()
+
+        offsets = []
+        for cid, msgs in chunk.msgs.items():
+            offsets.append((cid, self.bio.tell()))
+            entries = b"".join(part.astype("<u8").tobytes() for part in index_entries(msgs))
+            record = struct.pack("<HI", cid, len(entries)) + entries
+            self.bio.write(struct.pack("<BQ", 0x07, len(record)) + record)
+
+        index = struct.pack(
+            "<QQQQI",
+            chunk.message_start_time,
+            chunk.message_end_time,
+            chunk_start,
+            chunk_end - chunk_start,
+            len(offsets) * 10,
+        )
+        index += b"".join(struct.pack("<HQ", cid, offset) for cid, offset in offsets)
+        index += struct.pack("<QI", self.bio.tell() - chunk_end, len(encoding)) + encoding
+        index += struct.pack("<QQ", compressed_size, raw_size)
+        chunk_index = BytesIO()  # rosbags writes it at close, sized by its position
+        chunk_index.write(index)
+        self.chunks.append(chunk_index)
+        self.chunk = PendingChunk(2**63 - 1, 0, BytesIO(), defaultdict(list))
+
+    def flush(self) -> None:
+        """Write the open chunk and its message indexes to disk (the summary waits for close)."""
+        if self.chunk.bio.tell():
+            self.close_chunk()
+        self.bio.flush()
+
+
 class Rosbag2Writer(rosbag2.Writer):
     """``rosbags``' ROS 2 writer whose MCAP and sqlite3 storages take batches."""
 
@@ -299,6 +495,16 @@ class Rosbag2Writer(rosbag2.Writer):
         super().open()
         if isinstance(self.storage, McapStorage):
             self.storage.counts = self.counts
+
+    def compress_at_level_1(self) -> None:
+        """Compress zstd MCAP chunks at level 1 (:func:`mcap_zstd_compress`); after :meth:`open`."""
+        if isinstance(self.storage, McapStorage) and self.storage.compression == "zstd":
+            self.storage.compressor = mcap_zstd_compress
+
+    def set_chunk_size(self, size: int) -> None:
+        """MCAP: close each chunk once it holds more than ``size`` bytes (sqlite3: no chunks)."""
+        if isinstance(self.storage, McapStorage):
+            self.storage.CHUNK_SIZE = size
 
     def write_many(self, records: Sequence[Record], ids: dict[str, int]) -> None:
         """Append ``(topic, stamp, data)`` records, keeping ``rosbags``' statistics."""

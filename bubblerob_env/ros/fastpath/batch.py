@@ -5,35 +5,32 @@ where each physics step has evicted the interpreter's and numpy's working set. S
 pack frames (MCAP, ROS 1) take steps in batches: :meth:`FrameBatch.add` only copies a step's
 numbers into one ``float64`` row (one ``numpy`` call); when the batch is full,
 :meth:`FrameBatch.columns` computes every field value of every frame with column-wise ``numpy``,
-and :class:`BatchPacker` lays all frames out at once in a structured array whose layout is the
-frame's (record headers, constants, padding), writing ``n`` frames as one buffer.
+and :meth:`~bubblerob_env.ros.fastpath.packer.Packer.pack_many` lays all frames out at once in a
+structured array whose layout is the frame's (record headers, constants, padding), writing ``n``
+frames as one buffer. Where each number lies in the gathered row comes from one table,
+:data:`~bubblerob_env.ros.messages.values.ROW`.
 
-The values are those of :meth:`~bubblerob_env.ros.values.FrameValues.frame_args`, computed with
+The values are those of
+:meth:`~bubblerob_env.ros.messages.values.FrameValues.frame_args`, computed with
 the same operations on the same dtypes, so the bags are byte for byte those of the frame-by-frame
 path (``tests/ros/test_packed_frames.py`` checks).
 """
 
 from __future__ import annotations
 
-import math
-import struct
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any, SupportsFloat
 
 import numpy as np
 from numpy.typing import NDArray
 
-from bubblerob_env.ros.encode import PAD, Item, Slot
+from bubblerob_env.ros.messages.values import ROW, rep117, row_columns
 
 if TYPE_CHECKING:
-    from bubblerob_env.ros.convert import EnvSpecs
+    from bubblerob_env.specs import EnvSpecs
 
-__all__ = ["BatchPacker", "FrameBatch"]
+__all__ = ["FrameBatch"]
 
-# Columns of a gathered row: info arrays, the proximity reading, the action, then the scan.
-_POSITION, _QUATERNION_WXYZ, _TWIST, _WHEELS, _PROXIMITY, _ACTION, _SCAN = (
-    0, 3, 7, 13, 15, 16, 18,
-)  # fmt: skip
 
 
 class FrameBatch:
@@ -41,7 +38,7 @@ class FrameBatch:
 
     Args:
         specs: The env's sensor and drive specs (as for
-            :class:`~bubblerob_env.ros.values.FrameValues`).
+            :class:`~bubblerob_env.ros.messages.values.FrameValues`).
         capacity: Frames per batch; :meth:`add` says when it is reached.
     """
 
@@ -52,8 +49,8 @@ class FrameBatch:
         self.capacity = capacity
         self._laser = specs.laser is not None
         self._camera = specs.camera is not None
-        width = _SCAN + (specs.laser.num_rays if specs.laser is not None else 0)
-        self._rows = np.empty((capacity, width), dtype=np.float64)
+        self._at = row_columns(specs.laser.num_rays if specs.laser is not None else 0)
+        self._rows = np.empty((capacity, self._at["laser"].stop), dtype=np.float64)
         self._count = 0
         self._scalars: list[tuple[Any, ...]] = []
         self._images: list[bytes] = []
@@ -89,12 +86,12 @@ class FrameBatch:
         image = None
         if self._camera:
             image = np.ascontiguousarray(obs["camera"], dtype=np.uint8).tobytes()
-        parts: tuple[Any, ...] = (
-            info["position"], info["quaternion_wxyz"], info["body_twist"], info["wheel_command"],
-            obs["proximity"], action,
-        )  # fmt: skip
-        if self._laser:
-            parts += (obs["laser"],)
+        sources = {"info": info, "obs": obs}
+        parts = [
+            action if source == "action" else sources[source][key]
+            for source, key, _ in ROW
+            if key != "laser" or self._laser
+        ]
         np.concatenate(parts, out=self._rows[self._count], casting="unsafe")
         self._count += 1  # the frame is complete: only now does the batch hold it
         self._scalars.append(scalars)
@@ -119,24 +116,28 @@ class FrameBatch:
         specs = self.specs
         sec, nanosec = np.divmod(stamps, 1_000_000_000)
         action_sec, action_nsec = np.divmod(action_stamps, 1_000_000_000)
-        proximity = rows[:, _PROXIMITY]
-        proximity = np.where(proximity >= specs.proximity.range_max, math.inf, proximity)
-        proximity = np.where(proximity < specs.proximity.range_min, -math.inf, proximity)
-        raw = np.ascontiguousarray(rows[:, _ACTION:_SCAN], dtype="<f8")
-        left, right = rows[:, _WHEELS], rows[:, _WHEELS + 1]
+        at = self._at
+        proximity = rep117(
+            rows[:, at["proximity"].start].copy(),
+            specs.proximity.range_min,
+            specs.proximity.range_max,
+        )
+        raw = np.ascontiguousarray(rows[:, at["action"]], dtype="<f8")
+        left, right = rows[:, at["wheel_command"]].T
+        position, quaternion_wxyz = rows[:, at["position"]].T, rows[:, at["quaternion_wxyz"]].T
         if specs.action_type == "twist":
             clipped = np.clip(raw, -1.0, 1.0)
             linear = clipped[:, 0] * specs.max_linear_speed
             angular = clipped[:, 1] * specs.max_angular_speed
         else:
-            linear, angular = specs.drive.body_twist(left, right)  # type: ignore[arg-type]
+            linear, angular = specs.drive.body_twist(left, right)
         columns: dict[str, NDArray[Any]] = {
             "sec": sec, "nanosec": nanosec, "seq": np.array(seq, dtype=np.int64) & 0xFFFFFFFF,
             "sim_time": stamps * 1e-9, "proximity": proximity,
             "triggered": np.array(triggered, dtype=bool),
-            "px": rows[:, _POSITION], "py": rows[:, _POSITION + 1], "pz": rows[:, _POSITION + 2],
-            "qw": rows[:, _QUATERNION_WXYZ], "qx": rows[:, _QUATERNION_WXYZ + 1],
-            "qy": rows[:, _QUATERNION_WXYZ + 2], "qz": rows[:, _QUATERNION_WXYZ + 3],
+            "px": position[0], "py": position[1], "pz": position[2],
+            "qw": quaternion_wxyz[0], "qx": quaternion_wxyz[1],
+            "qy": quaternion_wxyz[2], "qz": quaternion_wxyz[3],
             "action": raw, "left": left, "right": right,
             "linear_x": np.asarray(linear, dtype=np.float64),
             "angular_z": np.asarray(angular, dtype=np.float64),
@@ -147,67 +148,15 @@ class FrameBatch:
             "action_log_ns": action_stamps, "action_log_sec": action_sec,
             "action_log_nsec": action_nsec,
         }  # fmt: skip
+        twist = rows[:, at["body_twist"]].T
         for index, name in enumerate(("vx", "vy", "vz", "wx", "wy", "wz")):
-            columns[name] = rows[:, _TWIST + index]
+            columns[name] = twist[index]
         if specs.laser is not None:
             # float32 masks, as frame_args: a Python float threshold compares as float32
-            ranges = rows[:, _SCAN:].astype("<f4")
-            ranges[ranges >= specs.laser.range_max] = np.inf
-            ranges[ranges < specs.laser.range_min] = -np.inf
-            columns["ranges"] = ranges
+            ranges = rows[:, at["laser"]].astype("<f4")
+            columns["ranges"] = rep117(ranges, specs.laser.range_min, specs.laser.range_max)
         if specs.camera is not None:
             columns["image"] = np.frombuffer(b"".join(images), dtype=np.uint8).reshape(
                 len(stamps), -1
             )
         return columns
-
-
-class BatchPacker:
-    """Many frames laid out at once: a structured ``numpy`` dtype of one packed frame.
-
-    Built from the ``struct`` items of a :class:`~bubblerob_env.ros.serialize.FramePacker`
-    (headers and messages of every record): constants and padding go into a template row once,
-    and each :class:`~bubblerob_env.ros.encode.Slot` becomes a field at its byte offset, filled
-    column-wise from :meth:`FrameBatch.columns`.
-    """
-
-    def __init__(self, items: Sequence[Item], size: int) -> None:
-        template = bytearray()
-        names: list[str] = []
-        formats: list[Any] = []
-        offsets: list[int] = []
-        self._fields: list[tuple[str, str, bool]] = []  # (field, slot, raw bytes)
-        for code, value in items:
-            width = struct.calcsize("<" + code)
-            if isinstance(value, Slot):
-                field = f"f{len(names)}"
-                blob = code.endswith("s")
-                names.append(field)
-                formats.append(("u1", (width,)) if blob else np.dtype("<" + code))
-                offsets.append(len(template))
-                self._fields.append((field, value.name, blob))
-                template += bytes(width)
-            elif value is PAD:
-                template += bytes(width)
-            else:
-                template += struct.pack("<" + code, value)
-        if len(template) != size:
-            raise ValueError(f"items pack {len(template)} bytes, the frame has {size}")
-        self.size = size
-        self.slot_names = tuple(sorted({slot for _, slot, _ in self._fields}))
-        self._dtype = np.dtype(
-            {"names": names, "formats": formats, "offsets": offsets, "itemsize": size}
-        )
-        self._template = np.frombuffer(bytes(template), dtype=np.uint8)
-
-    def pack(self, columns: Mapping[str, NDArray[Any]], count: int) -> NDArray[np.uint8]:
-        """``count`` frames, one after the other, as a flat ``uint8`` array."""
-        data = np.tile(self._template, count)
-        frames = data.view(self._dtype)
-        for field, slot, blob in self._fields:
-            column = columns[slot]
-            if blob:  # serialised elements: their little-endian bytes
-                frames[field] = np.ascontiguousarray(column).view(np.uint8).reshape(count, -1)
-            else:
-                frames[field] = column
-        return data

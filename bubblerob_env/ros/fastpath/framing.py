@@ -1,7 +1,8 @@
 """Packed frames: the record headers writers put before messages, and the index entries of frames.
 
 MCAP and ROS 1 writers take a frame's records, headers included, as one byte string packed by one
-``struct`` call upstream (:class:`~bubblerob_env.ros.serialize.FramePacker`). :class:`Framing`
+``struct`` call upstream (:class:`~bubblerob_env.ros.fastpath.serializer.FramePacker`).
+:class:`Framing`
 says which header goes before each message; :class:`FrameLayout` where each record of a packed
 frame starts. Writers index packed frames when their chunk closes, with numpy
 (:func:`index_frames`), giving the bytes the same records written one by one give.
@@ -9,6 +10,7 @@ frame starts. Writers index packed frames when their chunk closes, with numpy
 
 from __future__ import annotations
 
+import struct
 from collections import defaultdict
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -16,26 +18,25 @@ from typing import Any, BinaryIO
 
 import numpy as np
 from numpy.typing import NDArray
-from rosbags.rosbag1.writer import MAXSIZE
 
-from bubblerob_env.ros.encode import Item, Slot
+from bubblerob_env.ros.fastpath.encode import PAD, Item, Slot
 
 __all__ = [
-    "LOG_SLOTS",
+    "NO_TIME",
     "FrameLayout",
     "Framing",
     "Record",
     "append_batch",
     "index_entries",
     "index_frames",
+    "record_header",
 ]
 
 Record = tuple[str, int, bytes]
 """``(topic, log time in ns, serialised message)``."""
 
-LOG_SLOTS = ("log_ns", "log_sec", "log_nsec")
-"""Slot names of a record's log time in :meth:`Framing.header` (ns; ROS 1: sec and nsec); records
-logged at the action's stamp use them prefixed with ``action_``."""
+NO_TIME = 2**63 - 1
+"""The start time of a chunk that holds no record yet (``rosbags``' ``MAXSIZE``)."""
 
 
 @dataclass(frozen=True)
@@ -52,21 +53,37 @@ class Framing:
     ids: tuple[tuple[str, int], ...]
 
     def header(self, topic: str, size: int, action: bool) -> list[Item]:
-        """Items of the header of a ``size``-byte message on ``topic`` (see :data:`LOG_SLOTS`)."""
-        cid = dict(self.ids)[topic]
-        prefix = "action_" if action else ""
-        if self.kind == "mcap":
-            stamp = Slot(prefix + "log_ns")
-            return [("B", 0x05), ("Q", 22 + size), ("H", cid), ("I", 0), ("Q", stamp), ("Q", stamp)]
-        if self.kind == "ros1":
-            sec, nsec = Slot(prefix + "log_sec"), Slot(prefix + "log_nsec")
-            return [
-                ("I", 38), ("I", 4), ("4s", b"op=\x02"), ("I", 9), ("5s", b"conn="), ("I", cid),
-                ("I", 13), ("5s", b"time="), ("I", sec), ("I", nsec), ("I", size),
-            ]  # fmt: skip
-        if self.kind == "raw":
-            return []
-        raise ValueError(f"unknown framing {self.kind!r}")
+        """Items of the header of a ``size``-byte message on ``topic``.
+
+        Its log time is slot ``log_ns`` (ROS 1: ``log_sec`` and ``log_nsec``), prefixed with
+        ``action_`` for records logged at the action's stamp.
+        """
+        return _header(self.kind, dict(self.ids)[topic], size, "action_" if action else "")
+
+
+def _header(kind: str, cid: int, size: int, prefix: str) -> list[Item]:
+    """The one definition of every record header a writer puts before a message."""
+    if kind == "mcap":
+        stamp = Slot(prefix + "log_ns")
+        return [("B", 0x05), ("Q", 22 + size), ("H", cid), ("I", 0), ("Q", stamp), ("Q", stamp)]
+    if kind == "ros1":
+        sec, nsec = Slot(prefix + "log_sec"), Slot(prefix + "log_nsec")
+        return [
+            ("I", 38), ("I", 4), ("4s", b"op=\x02"), ("I", 9), ("5s", b"conn="), ("I", cid),
+            ("I", 13), ("5s", b"time="), ("I", sec), ("I", nsec), ("I", size),
+        ]  # fmt: skip
+    if kind == "raw":
+        return []
+    raise ValueError(f"unknown framing {kind!r}")
+
+
+def record_header(kind: str, cid: int, size: int, stamp_ns: int) -> bytes:
+    """The header of one record (``kind`` as :attr:`Framing.kind`), logged at ``stamp_ns``."""
+    sec, nsec = divmod(stamp_ns, 1_000_000_000)
+    times = {"log_ns": stamp_ns, "log_sec": sec, "log_nsec": nsec}
+    items = _header(kind, cid, size, "")
+    values = [times[v.name] if isinstance(v, Slot) else v for _, v in items if v is not PAD]
+    return struct.pack("<" + "".join(code for code, _ in items), *values)
 
 
 @dataclass(frozen=True, eq=False)
@@ -125,7 +142,7 @@ def index_frames(frames: list[Frame], index: Index) -> tuple[int, int, dict[int,
 
     Returns the lowest and highest log time and the number of records per channel.
     """
-    low, high = MAXSIZE, 0
+    low, high = NO_TIME, 0
     counts: dict[int, int] = defaultdict(int)
     for layout, positions, frame_stamps, action_stamps in _runs(frames):
         stamps = {False: frame_stamps, True: action_stamps}

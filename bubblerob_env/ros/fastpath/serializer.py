@@ -1,45 +1,43 @@
-"""Serialise env frames once per distro and hand the bytes to every sink of that distro.
+"""Env frames -> serialised records, for one distro and topic set.
 
-:class:`FrameSerializer` knows, for one distro and topic set, which messages a frame has and how
-to serialise each (compiled once, see :mod:`~bubblerob_env.ros.encode`). :class:`MessageFanout`
-turns a frame into field values once, serialises it once per distro among its sinks, and gives
-the same bytes to each sink: a recorder has one sink; live publishing adds more.
-
-Bag sinks that frame records themselves (MCAP, ROS 1: :meth:`~bubblerob_env.ros.sinks.BagSink.
-framing`) get the whole frame, record headers included, from one generated ``struct`` call of a
-:class:`FramePacker`; other sinks of that distro get records sliced from those bytes. When every
-sink frames records (a recorder), frames after steps are gathered and packed in batches instead
-(:mod:`~bubblerob_env.ros.batch`): the same bytes at a fraction of the cost per step.
+:class:`FrameSerializer` knows which messages a frame has and their ``struct`` items (from
+templates, see :mod:`~bubblerob_env.ros.fastpath.encode`). For a sink's
+:class:`~bubblerob_env.ros.fastpath.framing.Framing` it gives a :class:`FramePacker`: the frame's
+records, each behind its header, as one :class:`~bubblerob_env.ros.fastpath.packer.Packer`
+(``pack_one`` per frame, ``pack_many`` per batch). Sinks that take records rather than packed
+frames (a live publisher, replay) get them sliced from a frame packed without headers (``raw``):
+every recorded message goes through the same packer.
 """
 
 from __future__ import annotations
 
-import struct
-from collections.abc import Callable, Mapping, Sequence
-from typing import Any, SupportsFloat
+from collections.abc import Mapping, Sequence
+from typing import Any
 
+import numpy as np
 from numpy.typing import NDArray
 
-from bubblerob_env.ros.batch import BatchPacker, FrameBatch
-from bubblerob_env.ros.convert import EnvSpecs, RosConverter
-from bubblerob_env.ros.encode import CompiledMessage, Item, compile_items, compile_message
-from bubblerob_env.ros.framing import FrameLayout, Framing, Record
-from bubblerob_env.ros.sinks import BagSink
-from bubblerob_env.ros.topics import LATCHED_TOPICS, MSGTYPES, Topics
-from bubblerob_env.ros.writers import PackedBatchWriter, PackedWriter
+from bubblerob_env.ros.fastpath.encode import Item, items_size, message_items
+from bubblerob_env.ros.fastpath.framing import FrameLayout, Framing, Record
+from bubblerob_env.ros.fastpath.packer import Packer
+from bubblerob_env.ros.messages.convert import RosConverter
+from bubblerob_env.ros.messages.distros import serialize
+from bubblerob_env.ros.messages.topics import LATCHED_TOPICS, MSGTYPES, Topics
+from bubblerob_env.specs import EnvSpecs
 
-__all__ = ["FramePacker", "FrameSerializer", "MessageFanout"]
+__all__ = ["FramePacker", "FrameSerializer"]
 
-_Plan = list[tuple[str, CompiledMessage, bool]]  # (topic, encoder, logged at the action stamp)
+_Plan = list[tuple[str, tuple[Item, ...], bool]]  # (topic, message items, logged at the action)
 
 
 class FramePacker:
-    """One frame's records, each behind its :class:`~bubblerob_env.ros.framing.Framing` header.
+    """One frame's records, each behind its header, packed by one ``Packer``.
 
-    The whole frame is packed by one generated ``struct`` call (constants folded, see
-    :func:`~bubblerob_env.ros.encode.compile_items`) straight from the tuple of
-    :meth:`~bubblerob_env.ros.convert.RosConverter.frame_args`; :attr:`layout` tells the writer
-    where each record starts, so that it can index them when the chunk closes.
+    The headers are those of a :class:`~bubblerob_env.ros.fastpath.framing.Framing`; the packer
+    is a :class:`~bubblerob_env.ros.fastpath.packer.Packer`.
+
+    :attr:`layout` tells a writer where each record starts, so that it can index them when the
+    chunk closes.
     """
 
     def __init__(self, plan: _Plan, framing: Framing, names: Sequence[str]) -> None:
@@ -48,25 +46,25 @@ class FramePacker:
         self._payloads: list[tuple[str, int, int, bool]] = []
         ids = dict(framing.ids)
         pos = 0
-        for topic, encoder, is_action in plan:
-            header = framing.header(topic, encoder.size, is_action)
-            head = struct.calcsize("<" + "".join(code for code, _ in header))
+        for topic, message, is_action in plan:
+            size = items_size(message)
+            header = framing.header(topic, size, is_action)
+            head = items_size(header)
             channels.append(ids[topic])
             offsets.append(pos)
             action.append(is_action)
-            self._payloads.append((topic, pos + head, pos + head + encoder.size, is_action))
+            self._payloads.append((topic, pos + head, pos + head + size, is_action))
             items += header
-            items += encoder.items
-            pos += head + encoder.size
-        compiled = compile_items(items)
-        assert compiled.size == pos
+            items += message
+            pos += head + size
+        self.packer = Packer(items, names)
+        self.pack_one = self.packer.pack_one
+        """``pack_one(frame_args, stamp_ns, action_stamp_ns)``: the frame's bytes."""
         self.layout = FrameLayout(tuple(channels), tuple(offsets), tuple(action), pos)
-        self.pack: Callable[[tuple[Any, ...], int, int], bytes] = compiled.tuple_encoder(
-            names, ("log_ns", "action_log_ns")
-        )
-        """``pack(frame_args, stamp_ns, action_stamp_ns)``: the frame's bytes."""
-        self.batch = BatchPacker(items, pos)
-        """Packs many frames at once from :meth:`~bubblerob_env.ros.batch.FrameBatch.columns`."""
+
+    def pack_many(self, columns: Mapping[str, NDArray[Any]], count: int) -> NDArray[np.uint8]:
+        """``count`` frames from :meth:`~bubblerob_env.ros.fastpath.batch.FrameBatch.columns`."""
+        return self.packer.pack_many(columns, count)
 
     def records(self, data: bytes, stamp_ns: int, action_stamp_ns: int) -> list[Record]:
         """The frame's records, their messages sliced from packed ``data``."""
@@ -82,33 +80,39 @@ class FrameSerializer:
     def __init__(self, specs: EnvSpecs, distro: str, topics: Topics) -> None:
         self.converter = RosConverter(specs, distro, topics.frame_prefix)
         self.names = topics.resolved()
-        store = self.converter.store
-        encoding = self.converter.distro.encoding
-        self.encoding = encoding
+        self.distro = self.converter.distro
         slots = self.converter.slots()
         action_keys = set(self.converter.action_keys())
-
-        def plan(stepped: bool) -> _Plan:
-            return [
-                (self.names[key], encoders[key], key in action_keys)
-                for key in self.converter.frame_keys(stepped)
-                if key in self.names
-            ]
-
-        encoders = {
-            key: compile_message(store, MSGTYPES[key], self.converter.message(key, slots), encoding)
+        messages = {
+            key: message_items(
+                self.converter.store,
+                MSGTYPES[key],
+                self.converter.message(key, slots),
+                self.distro.encoding,
+            )
             for key in self.converter.frame_keys(True)
             if key in self.names
         }
-        self._plans = {False: plan(False), True: plan(True)}
+        self._plans = {
+            stepped: [
+                (self.names[key], messages[key], key in action_keys)
+                for key in self.converter.frame_keys(stepped)
+                if key in self.names
+            ]
+            for stepped in (False, True)
+        }
+        self._raw = Framing("raw", tuple((name, i) for i, name in enumerate(self.names.values())))
         self._packers: dict[tuple[Framing, bool], FramePacker] = {}
 
-    def packer(self, framing: Framing, stepped: bool) -> FramePacker:
-        """The packer of frames after a ``step`` (or a ``reset``) for ``framing`` (cached)."""
-        key = (framing, stepped)
+    def packer(self, framing: Framing | None, stepped: bool) -> FramePacker:
+        """The packer of frames after a ``step`` (or a ``reset``) for ``framing`` (cached).
+
+        ``None``: no headers, for slicing records (:meth:`FramePacker.records`).
+        """
+        key = (framing or self._raw, stepped)
         if key not in self._packers:
             names = self.converter.value_names(stepped)
-            self._packers[key] = FramePacker(self._plans[stepped], framing, names)
+            self._packers[key] = FramePacker(self._plans[stepped], key[0], names)
         return self._packers[key]
 
     def topics(self) -> list[tuple[str, str, bool]]:
@@ -117,220 +121,26 @@ class FrameSerializer:
         return [(self.names[k], MSGTYPES[k], k in LATCHED_TOPICS) for k in keys if k in self.names]
 
     def frame(
-        self, values: Mapping[str, Any], stamp_ns: int, action_stamp_ns: int, stepped: bool
+        self, args: tuple[Any, ...], stamp_ns: int, action_stamp_ns: int, stepped: bool
     ) -> list[Record]:
-        """Records of one frame; the action's topics are logged at ``action_stamp_ns``."""
-        return [
-            (name, action_stamp_ns if is_action else stamp_ns, encoder.encode(values))
-            for name, encoder, is_action in self._plans[stepped]
-        ]
+        """Records of one frame (``args``: its ``frame_args``), sliced from one packed frame.
 
-    def _serialize(self, key: str, message: Any) -> bytes:
-        store = self.converter.store
-        if self.encoding == "ros1":
-            return bytes(store.serialize_ros1(message, MSGTYPES[key]))
-        return bytes(store.serialize_cdr(message, MSGTYPES[key], little_endian=True))
+        The action's topics are logged at ``action_stamp_ns``.
+        """
+        packer = self.packer(None, stepped)
+        data = packer.pack_one(args, stamp_ns, action_stamp_ns)
+        return packer.records(data, stamp_ns, action_stamp_ns)
 
     def tf_static(self, stamp_ns: int) -> list[Record]:
         """The ``/tf_static`` record (none if that topic is left out)."""
         if "tf_static" not in self.names:
             return []
         message = self.converter.tf_static(stamp_ns)
-        return [(self.names["tf_static"], stamp_ns, self._serialize("tf_static", message))]
+        data = serialize(self.distro.name, message, MSGTYPES["tf_static"])
+        return [(self.names["tf_static"], stamp_ns, data)]
 
     def episode(self, metadata: Mapping[str, Any], stamp_ns: int) -> Record:
         """The episode metadata record (``std_msgs/String`` holding JSON)."""
         message = self.converter.episode(metadata)
-        return (self.names["episode"], stamp_ns, self._serialize("episode", message))
-
-
-_Send = Callable[[tuple[Any, ...], int, int], None]  # (frame args, stamp, action stamp)
-
-
-class MessageFanout:
-    """Frames in, serialised records out to every sink; each message serialised once per distro.
-
-    Per frame the work is planned once per set of sinks (:meth:`_update_routes`): one send per
-    distro, which packs the frame once per framing and hands the bytes to each sink's
-    :meth:`~bubblerob_env.ros.sinks.BagSink.packed_writer`; sinks without framing get records.
-
-    If every sink frames records (bags, no live sink), frames after steps are batched: up to
-    ``batch_frames`` of them (and about a MiB) are gathered, then converted and packed together
-    and handed to each sink's :meth:`~bubblerob_env.ros.sinks.BagSink.packed_batch_writer`. Every
-    other write (records, a reset's frame, adding or removing a sink) and :meth:`flush` first
-    writes the pending frames, so the bags hold the same bytes in the same order.
-    ``batch_frames=0`` sends every frame at once. Close a sink only after :meth:`remove_sink`
-    (or :meth:`flush`): until then its latest frames may still be in the batch.
-    """
-
-    def __init__(self, specs: EnvSpecs, topics: Topics, batch_frames: int = 256) -> None:
-        if batch_frames < 0:
-            raise ValueError(f"batch_frames must be >= 0 (0: no batching), got {batch_frames}")
-        self.specs = specs
-        self.topics = topics
-        self.batch_frames = batch_frames
-        self._batch: FrameBatch | None = None  # gathering frames after steps, if batching
-        self._batch_sends: list[tuple[BatchPacker, FrameLayout, list[PackedBatchWriter]]] = []
-        self._serializers: dict[str, FrameSerializer] = {}
-        self._sinks: dict[str, list[BagSink]] = {}
-        self._sends: dict[str, tuple[_Send, _Send]] = {}  # per distro: after a reset, a step
-        self._plan: tuple[list[_Send], list[_Send]] = ([], [])  # every distro's sends
-        self._convert: Callable[..., tuple[Any, ...]] | None = None  # frame_args
-
-    def serializer(self, distro: str) -> FrameSerializer:
-        """The serializer of ``distro`` (made on first use)."""
-        if distro not in self._serializers:
-            self._serializers[distro] = FrameSerializer(self.specs, distro, self.topics)
-        return self._serializers[distro]
-
-    def add_sink(self, sink: BagSink) -> None:
-        """Start sending to ``sink``, declaring every topic in it."""
-        self.flush()  # frames gathered so far go to the sinks they were gathered for
-        serializer = self.serializer(sink.distro)
-        for name, msgtype, latched in serializer.topics():
-            sink.add_topic(name, msgtype, latched)
-        self._sinks.setdefault(sink.distro, []).append(sink)
-        self._update_routes(sink.distro)  # compiles the packers now: errors before the first frame
-
-    def remove_sink(self, sink: BagSink) -> None:
-        """Stop sending to ``sink`` (it is not closed), after writing the pending frames.
-
-        The sink is removed even if writing them fails (the error is raised after).
-        """
-        try:
-            self.flush()
-        finally:
-            self._sinks[sink.distro].remove(sink)
-            if not self._sinks[sink.distro]:
-                del self._sinks[sink.distro]
-            self._update_routes(sink.distro)
-
-    def _update_routes(self, distro: str) -> None:
-        """Plan the sends of ``distro`` for its current sinks (and their current framings)."""
-        sinks = self._sinks.get(distro, [])
-        if sinks:
-            self._sends[distro] = (self._sender(distro, False), self._sender(distro, True))
-        else:
-            self._sends.pop(distro, None)
-        self._plan = ([s[0] for s in self._sends.values()], [s[1] for s in self._sends.values()])
-        # Frame values do not depend on the distro: any converter computes them for all.
-        first = next(iter(self._sends), None)
-        self._convert = None if first is None else self._serializers[first].converter.frame_args
-        self._plan_batches()
-
-    def _plan_batches(self) -> None:
-        """Batch frames after steps if every sink frames records (see the class docstring)."""
-        self._batch, self._batch_sends = None, []
-        sinks = self.sinks
-        if not self.batch_frames or not sinks or any(s.framing() is None for s in sinks):
-            return
-        groups: dict[tuple[str, Framing], list[PackedBatchWriter]] = {}
-        for sink in sinks:
-            framing = sink.framing()
-            assert framing is not None
-            groups.setdefault((sink.distro, framing), []).append(sink.packed_batch_writer())
-        size = 1
-        for (distro, framing), writers in groups.items():
-            packer = self._serializers[distro].packer(framing, stepped=True)
-            self._batch_sends.append((packer.batch, packer.layout, writers))
-            size = max(size, packer.layout.size)
-        # About a chunk's worth (1 MiB) at most: camera frames are ~50x larger than the rest.
-        self._batch = FrameBatch(self.specs, max(1, min(self.batch_frames, 2**20 // size)))
-
-    def flush(self) -> None:
-        """Write the frames gathered for a batch to the sinks (they stay open)."""
-        batch = self._batch
-        if batch is None or not len(batch):
-            return
-        count = len(batch)
-        columns = batch.columns()
-        stamps, action_stamps = columns["log_ns"], columns["action_log_ns"]
-        for packer, layout, writers in self._batch_sends:
-            data = packer.pack(columns, count)
-            for write in writers:
-                write(data, layout, stamps, action_stamps)
-
-    def _sender(self, distro: str, stepped: bool) -> _Send:
-        serializer = self._serializers[distro]
-        groups: dict[Framing, tuple[FramePacker, list[PackedWriter]]] = {}
-        plain: list[BagSink] = []
-        for sink in self._sinks[distro]:
-            framing = sink.framing()
-            if framing is None:
-                plain.append(sink)
-            else:
-                packer = serializer.packer(framing, stepped)
-                groups.setdefault(framing, (packer, []))[1].append(sink.packed_writer())
-        packs = [(packer.pack, packer.layout, writers) for packer, writers in groups.values()]
-        if len(packs) == 1 and len(packs[0][2]) == 1 and not plain:  # a recorder: one bag
-            ((pack, layout, (write,)),) = packs
-
-            def send_one(args: tuple[Any, ...], stamp: int, action_stamp: int) -> None:
-                write(pack(args, stamp, action_stamp), layout, stamp, action_stamp)
-
-            return send_one
-        first = next(iter(groups.values()), (None, []))[0]
-        names = serializer.converter.value_names(stepped)
-
-        def send(args: tuple[Any, ...], stamp: int, action_stamp: int) -> None:
-            sliced: bytes | None = None  # the first framing's bytes
-            for pack, layout, writers in packs:
-                data = pack(args, stamp, action_stamp)
-                sliced = data if sliced is None else sliced
-                for write in writers:
-                    write(data, layout, stamp, action_stamp)
-            if plain:
-                if first is not None and sliced is not None:  # sliced: serialised once
-                    records = first.records(sliced, stamp, action_stamp)
-                else:
-                    values = dict(zip(names, args, strict=True))
-                    records = serializer.frame(values, stamp, action_stamp, stepped)
-                for sink in plain:
-                    sink.write_batch(records)
-
-        return send
-
-    @property
-    def sinks(self) -> list[BagSink]:
-        """Every sink, in the order they were added per distro."""
-        return [sink for group in self._sinks.values() for sink in group]
-
-    def write_frame(
-        self,
-        obs: Mapping[str, NDArray[Any]],
-        info: Mapping[str, Any],
-        stamp_ns: int,
-        seq: int,
-        action: NDArray[Any] | None = None,
-        action_stamp_ns: int | None = None,
-        reward: SupportsFloat = 0.0,
-        terminated: bool = False,
-        truncated: bool = False,
-    ) -> None:
-        """Send one frame (``action=None``: a reset) to every sink."""
-        convert = self._convert
-        if convert is None:
-            return
-        action_stamp = stamp_ns if action_stamp_ns is None else action_stamp_ns
-        batch = self._batch
-        if batch is not None:
-            if action is not None:
-                full = batch.add(
-                    obs, info, stamp_ns, seq, action, action_stamp, reward, terminated, truncated
-                )
-                if full:
-                    self.flush()
-                return
-            self.flush()
-        args = convert(obs, info, stamp_ns, seq, action, reward, terminated, truncated)
-        for send in self._plan[action is not None]:
-            send(args, stamp_ns, action_stamp)
-
-    def write_records(self, make: Any) -> None:
-        """Send records made per distro by ``make(serializer) -> list[Record]``."""
-        self.flush()
-        for distro, sinks in self._sinks.items():
-            records = make(self._serializers[distro])
-            if records:
-                for sink in sinks:
-                    sink.write_batch(records)
+        data = serialize(self.distro.name, message, MSGTYPES["episode"])
+        return (self.names["episode"], stamp_ns, data)

@@ -48,7 +48,7 @@ def _size(text: str) -> tuple[int, int]:
 
 def add_node_subcommand(subparsers: Any) -> None:
     """Add ``node`` to the ``bubblerob`` command."""
-    from bubblerob_env.ros.topics import PRESETS
+    from bubblerob_env.ros.messages.topics import PRESETS
 
     node = subparsers.add_parser(
         "node",
@@ -136,7 +136,7 @@ def _node(args: argparse.Namespace) -> int:
     import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
     from bubblerob_env.ros.live.backend import BackendError, load_backend
     from bubblerob_env.ros.live.node import NodeConfig, SimNode
-    from bubblerob_env.ros.topics import topics_preset
+    from bubblerob_env.ros.messages.topics import topics_preset
 
     def fail(text: str) -> int:
         print(f"bubblerob node: {text}", file=sys.stderr)

@@ -13,7 +13,6 @@ import struct
 import threading
 import time
 from collections import deque
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -21,7 +20,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bubblerob_env.kinematics import DiffDrive
-from bubblerob_env.ros.distros import typestore
+from bubblerob_env.ros.messages.distros import deserialize
+from bubblerob_env.ros.messages.topics import namespace_prefix
 
 __all__ = [
     "CONTROL_TYPES",
@@ -38,7 +38,6 @@ CONTROL_TYPES = {
 }
 """Message type of each kind of control input."""
 _ROS1_LAYOUT = {"twist": struct.Struct("<6d"), "float32": struct.Struct("<f"), "bool": None}
-SIM_EVENTS = ("start", "pause", "stop", "enable_sync", "trigger")
 
 
 class ControlError(ValueError):
@@ -49,8 +48,8 @@ class ControlError(ValueError):
 class ControlTopics:
     """Names of the node's control topics (relative ones go under the node's namespace).
 
-    The wheel commands come from :class:`~bubblerob_env.ros.topics.Topics` (``cmd_vel``,
-    ``left_motor_speed``, ``right_motor_speed``); the rest are the seeds' switches and the
+    The wheel commands come from :class:`~bubblerob_env.ros.messages.topics.Topics` (``cmd_vel``,
+    ``left_motor_speed``, ``right_motor_speed``); the rest are the tutorials' switches and the
     CoppeliaSim helper's simulation-control topics.
     """
 
@@ -66,7 +65,7 @@ class ControlTopics:
 
     def resolved(self, namespace: str = "") -> dict[str, str]:
         """Full name of every control topic, namespace applied."""
-        prefix = "/" + namespace.strip("/") if namespace.strip("/") else ""
+        prefix = namespace_prefix(namespace)
         return {key: prefix + "/" + name.strip("/") for key, name in self.__dict__.items()}
 
 
@@ -88,7 +87,7 @@ def decode_control(kind: str, raw: bytes, encoding: str) -> Any:
         values = layout.unpack(raw)
     else:
         try:
-            msg: Any = typestore("jazzy").deserialize_cdr(raw, CONTROL_TYPES[kind])
+            msg: Any = deserialize("jazzy", raw, CONTROL_TYPES[kind])
         except Exception as error:  # noqa: BLE001 - whatever a malformed buffer raises
             raise ControlError(f"undecodable {CONTROL_TYPES[kind]} ({error})") from None
         if kind == "bool":
@@ -144,7 +143,10 @@ class ControlState:
             self._last_command = self._sim_time
 
     def push(self, event: str, value: bool) -> None:
-        """Queue a simulation-control event (see :data:`SIM_EVENTS`) and wake the loop."""
+        """Queue a simulation-control event and wake the loop.
+
+        Events: ``start``, ``pause``, ``stop``, ``enable_sync``, ``trigger``.
+        """
         with self._lock:
             self._events.append((event, value))
             self._lock.notify_all()
@@ -199,6 +201,3 @@ class ControlState:
         with self._lock:
             if not self._events and timeout > 0:
                 self._lock.wait(timeout)
-
-
-Handler = Callable[[Any], None]

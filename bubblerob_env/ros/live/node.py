@@ -21,7 +21,6 @@ from typing import Any
 
 import gymnasium as gym
 
-from bubblerob_env.ros.distros import typestore
 from bubblerob_env.ros.live.backend import LiveBackend
 from bubblerob_env.ros.live.controls import (
     CONTROL_TYPES,
@@ -31,7 +30,8 @@ from bubblerob_env.ros.live.controls import (
     decode_control,
 )
 from bubblerob_env.ros.live.wrapper import RosLivePublisher
-from bubblerob_env.ros.topics import Topics
+from bubblerob_env.ros.messages.distros import get_distro, serialize, typestore
+from bubblerob_env.ros.messages.topics import Topics
 
 __all__ = ["STOPPED", "RUNNING", "PAUSED", "NodeConfig", "SimNode"]
 
@@ -113,7 +113,7 @@ class SimNode:
         self.first_step_at: float | None = None
         """``time.perf_counter()`` when the first step began, and when the latest ended."""
         self.last_step_at: float | None = None
-        self._encoding = "ros1" if backend.ros_version == 1 else "cdr"
+        self._encoding = get_distro(backend.distro).encoding
         self._bool = {v: self._serialize("std_msgs/msg/Bool", data=v) for v in (False, True)}
         self._step_done = backend.advertise(self.names["step_done"], "std_msgs/msg/Bool")
         self._state_out = backend.advertise(self.names["state"], "std_msgs/msg/Int32", True)
@@ -122,11 +122,8 @@ class SimNode:
     # -- wiring ---------------------------------------------------------------------------------
 
     def _serialize(self, msgtype: str, **fields: Any) -> bytes:
-        store = typestore(self.backend.distro)
-        message = store.types[msgtype](**fields)
-        if self._encoding == "ros1":
-            return bytes(store.serialize_ros1(message, msgtype))
-        return bytes(store.serialize_cdr(message, msgtype, little_endian=True))
+        distro = self.backend.distro
+        return serialize(distro, typestore(distro).types[msgtype](**fields), msgtype)
 
     def _subscribe_all(self) -> None:
         s = self.state

@@ -3,7 +3,7 @@
 ``rospy`` comes from a ROS install or Debian (``python3-rospy``). From a virtualenv it is found by
 *appending* Debian's ``dist-packages`` to ``sys.path`` (never prepending: Debian's NumPy must not
 shadow the venv's). Every topic is published with a message class whose ``serialize`` writes
-bytes made by :mod:`~bubblerob_env.ros.serialize`, declaring the genuine type, md5sum and full
+bytes made by :mod:`~bubblerob_env.ros.fastpath`, declaring the genuine type, md5sum and full
 definition, so that ``rostopic echo``, ``rosbag record`` and typed subscribers accept it. Control
 topics are subscribed as ``rospy.AnyMsg``: the sender's declared type is checked here and wrongly
 typed messages are reported instead of being silently refused by the middleware.
@@ -21,8 +21,6 @@ from types import ModuleType
 from typing import Any
 from urllib.parse import urlparse
 
-from bubblerob_env.ros import ros1_defs
-from bubblerob_env.ros.distros import typestore
 from bubblerob_env.ros.live.backend import (
     LiveBackend,
     MasterUnreachableError,
@@ -30,6 +28,8 @@ from bubblerob_env.ros.live.backend import (
     RawCallback,
     RosUnavailableError,
 )
+from bubblerob_env.ros.messages.distros import message_definition
+from bubblerob_env.ros.messages.topics import namespace_prefix
 
 __all__ = ["DEBIAN_DIST_PACKAGES", "Ros1Backend", "check_master", "import_rospy", "ros1_msgdef"]
 
@@ -113,11 +113,8 @@ class _TimeoutTransport(xmlrpc.client.Transport):
 
 def ros1_msgdef(msgtype: str) -> tuple[str, str, str]:
     """``(ROS 1 type name, md5sum, full definition)`` of ``msgtype`` (``pkg/msg/Type``)."""
-    name = msgtype.replace("/msg/", "/")
-    if name in ros1_defs.FULL_TEXT:
-        return name, ros1_defs.MD5SUM[name], ros1_defs.FULL_TEXT[name]
-    text, md5sum = typestore("noetic").generate_msgdef(msgtype, ros_version=1)
-    return name, md5sum, text
+    text, md5sum = message_definition("noetic", msgtype)
+    return msgtype.replace("/msg/", "/"), md5sum, text
 
 
 class Ros1Backend(LiveBackend):
@@ -142,7 +139,7 @@ class Ros1Backend(LiveBackend):
             RosUnavailableError: ``rospy`` is not importable.
             MasterUnreachableError: No master answered within ``master_timeout`` seconds.
         """
-        ns = "/" + namespace.strip("/") + "/" if namespace.strip("/") else ""
+        ns = namespace_prefix(namespace) + "/" if namespace_prefix(namespace) else ""
         if ns:  # rospy reads the node's namespace from ROS_NAMESPACE when first imported
             os.environ["ROS_NAMESPACE"] = ns
         self._rospy = rospy = import_rospy()

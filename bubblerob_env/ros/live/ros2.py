@@ -12,6 +12,7 @@ import threading
 from typing import Any
 
 from bubblerob_env.ros.live.backend import LiveBackend, Publish, RawCallback, RosUnavailableError
+from bubblerob_env.ros.messages.topics import namespace_prefix
 
 __all__ = ["Ros2Backend"]
 
@@ -55,7 +56,7 @@ class Ros2Backend(LiveBackend):
         self._durability = DurabilityPolicy
         if not rclpy.ok():
             rclpy.init(args=[])
-        ns = "/" + namespace.strip("/") if namespace.strip("/") else ""
+        ns = namespace_prefix(namespace)
         self._node = rclpy.create_node(node_name, namespace=ns)
         self._executor = SingleThreadedExecutor()
         self._executor.add_node(self._node)

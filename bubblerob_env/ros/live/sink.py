@@ -1,6 +1,6 @@
 """``LiveSink``: the bag-sink interface, publishing to a live ROS graph instead of a file.
 
-:class:`~bubblerob_env.ros.serialize.MessageFanout` serialises each message once per distro and
+:class:`~bubblerob_env.ros.bags.fanout.MessageFanout` serialises each message once per distro and
 hands the same bytes to every sink of that distro: a bag, this sink, or both at once.
 """
 
@@ -9,9 +9,9 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
+from bubblerob_env.ros.bags.sinks import BagSink
+from bubblerob_env.ros.fastpath.framing import Record
 from bubblerob_env.ros.live.backend import LiveBackend, Publish
-from bubblerob_env.ros.sinks import BagSink
-from bubblerob_env.ros.writers import Record
 
 __all__ = ["LiveSink"]
 

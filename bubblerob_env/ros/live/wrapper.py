@@ -7,7 +7,6 @@ recorder writes for the same seeds and actions, with ``/clock`` for ``use_sim_ti
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -15,14 +14,13 @@ import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
-from bubblerob_env.ros.convert import EnvSpecs
-from bubblerob_env.ros.episodes import EpisodeStream
+from bubblerob_env.ros.bags.fanout import MessageFanout
+from bubblerob_env.ros.bags.sinks import BagSink
+from bubblerob_env.ros.episodes import EpisodeStream, jsonable
 from bubblerob_env.ros.live.backend import LiveBackend, load_backend
 from bubblerob_env.ros.live.sink import LiveSink
-from bubblerob_env.ros.recorder import env_metadata
-from bubblerob_env.ros.serialize import MessageFanout
-from bubblerob_env.ros.sinks import BagSink
-from bubblerob_env.ros.topics import Topics
+from bubblerob_env.ros.messages.topics import Topics
+from bubblerob_env.specs import EnvSpecs
 
 __all__ = ["RosLivePublisher"]
 
@@ -40,9 +38,9 @@ class RosLivePublisher(gym.Wrapper[Any, Any, Any, Any]):
         backend: A started :class:`~bubblerob_env.ros.live.backend.LiveBackend`; default: start
             one with ``ros`` (it is shut down by :meth:`close`).
         ros: 1 (``rospy``) or 2 (``rclpy``) when no backend is given.
-        topics: Topic names (default :class:`~bubblerob_env.ros.topics.Topics`).
-        sinks: More sinks (bags from :func:`~bubblerob_env.ros.sinks.open_bag`) fed with the same
-            serialised bytes; they are closed by :meth:`close`.
+        topics: Topic names (default :class:`~bubblerob_env.ros.messages.topics.Topics`).
+        sinks: More sinks (bags from :func:`~bubblerob_env.ros.bags.sinks.open_bag`) fed with the
+            same serialised bytes; they are closed by :meth:`close`.
         metadata: JSON-able facts published with every episode on the episode topic.
     """
 
@@ -60,7 +58,7 @@ class RosLivePublisher(gym.Wrapper[Any, Any, Any, Any]):
         self._own_backend = backend is None
         self.backend = backend or load_backend(ros, namespace=self.topics.namespace)
         self.specs = EnvSpecs.from_env(env)
-        self.metadata = dict(metadata or {})
+        self.metadata = dict(jsonable(metadata or {}))
         self._dt_ns = round(float(env.unwrapped.dt) * 1e9)  # type: ignore[attr-defined]
         self.fanout = MessageFanout(self.specs, self.topics)
         self.sink = LiveSink(self.backend)
@@ -93,22 +91,8 @@ class RosLivePublisher(gym.Wrapper[Any, Any, Any, Any]):
         """Reset the env and publish the first frame of a new episode (and its metadata)."""
         if self._closed:
             raise RuntimeError("this RosLivePublisher is closed")
-        obs, info = self.env.reset(seed=seed, options=options)
-        start = self._stream.next_start()
-        episode = {
-            "episode": self.episode,
-            "seed": seed,
-            "options": options,
-            **env_metadata(self.env),
-            "start_time_ns": start,
-            "first_seq": self.seq,
-            "dt": self._dt_ns * 1e-9,
-            "distro": self.backend.distro,
-            "format": "live",
-            "topics": self.topics.to_dict(),
-            **self.metadata,
-        }
-        self._stream.begin(obs, info, json.loads(json.dumps(episode, default=str)))
+        facts = {"distro": self.backend.distro, "format": "live", "topics": self.topics.to_dict()}
+        obs, info, _ = self._stream.reset(self.env, seed, options, facts | self.metadata)
         self.episode += 1
         return obs, info
 

@@ -3,14 +3,16 @@
 Conversion happens in two stages, so that the recorder's fast path and anyone who wants message
 objects share one definition of every field:
 
-1. :meth:`RosConverter.frame_values` (or ``frame_args``, see :mod:`~bubblerob_env.ros.values`)
+1. :meth:`RosConverter.frame_values` (or ``frame_args``, see
+   :mod:`~bubblerob_env.ros.messages.values`)
    turns one env frame (the observation and info of a ``reset`` or ``step``, plus the action that
    led to it) into flat field values in ROS units and conventions: REP 117 ``+inf``/``-inf``
    ranges, quaternions in ROS order (x, y, z, w), the action as a wheel speed command and a body
    twist.
 2. :meth:`RosConverter.message` builds the ``rosbags`` message of one topic key from such a dict.
-   Given :class:`~bubblerob_env.ros.encode.Slot` placeholders instead of values (see
-   :meth:`RosConverter.slots`), it builds the template that :mod:`~bubblerob_env.ros.encode`
+   Given :class:`~bubblerob_env.ros.messages.values.Slot` placeholders instead of values (see
+   :meth:`RosConverter.slots`), it builds the template that
+   :mod:`~bubblerob_env.ros.fastpath.encode`
    compiles.
 
 Frames follow REP 103/105: ``odom -> base_link`` on ``/tf`` and in ``nav_msgs/Odometry`` (twist in
@@ -22,20 +24,17 @@ from __future__ import annotations
 
 import json
 from collections.abc import Mapping
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from rosbags.typesys.store import Typestore
 
-from bubblerob_env.kinematics import DiffDrive
-from bubblerob_env.ros.distros import get_distro, typestore
-from bubblerob_env.ros.encode import Slot
-from bubblerob_env.ros.topics import MSGTYPES
-from bubblerob_env.ros.values import SCALAR_NAMES, STEP_NAMES, FrameValues
-from bubblerob_env.sensors import CameraSpec, LaserSpec, ProximitySpec, StaticTransform
+from bubblerob_env.ros.messages.distros import get_distro, typestore
+from bubblerob_env.ros.messages.topics import MSGTYPES
+from bubblerob_env.ros.messages.values import SCALAR_NAMES, STEP_NAMES, FrameValues, Slot
+from bubblerob_env.specs import EnvSpecs
 
-__all__ = ["FRAME_KEYS", "EnvSpecs", "RosConverter", "split_stamp"]
+__all__ = ["FRAME_KEYS", "RosConverter", "split_stamp"]
 
 ODOM_FRAME = "odom"
 BASE_FRAME = "base_link"
@@ -65,35 +64,6 @@ _STEP_KEYS = (*_RESULT_KEYS, "reward", "terminated", "truncated")
 _RADIATION = {"ULTRASOUND": 0, "INFRARED": 1}
 
 
-@dataclass(frozen=True)
-class EnvSpecs:
-    """What the converter needs to know about an env (all of it plain data)."""
-
-    laser: LaserSpec | None
-    proximity: ProximitySpec
-    camera: CameraSpec | None
-    static_transforms: tuple[StaticTransform, ...]
-    drive: DiffDrive
-    action_type: str
-    max_linear_speed: float
-    max_angular_speed: float
-
-    @classmethod
-    def from_env(cls, env: Any) -> EnvSpecs:
-        """Read the specs of a ``BubbleRobEnv`` (or any wrapper around one)."""
-        base = env.unwrapped
-        return cls(
-            base.laser_spec,
-            base.proximity_spec,
-            base.camera_spec,
-            tuple(base.static_transforms),
-            base.drive,
-            base.action_type,
-            float(base.max_linear_speed),
-            float(base.max_angular_speed),
-        )
-
-
 def split_stamp(stamp_ns: int) -> tuple[int, int]:
     """Nanoseconds -> ``(sec, nanosec)``."""
     return stamp_ns // 1_000_000_000, stamp_ns % 1_000_000_000
@@ -102,7 +72,8 @@ def split_stamp(stamp_ns: int) -> tuple[int, int]:
 class RosConverter(FrameValues):
     """Builds the messages of one distro from env frames (see the module docstring).
 
-    ``frame_prefix`` (e.g. ``"robot2/"``, as :attr:`~bubblerob_env.ros.topics.Topics.frame_prefix`
+    ``frame_prefix`` (e.g. ``"robot2/"``, as
+    :attr:`~bubblerob_env.ros.messages.topics.Topics.frame_prefix`
     gives for a namespace) goes before every frame id, so that robots sharing one ROS graph keep
     separate tf trees on the shared ``/tf``; empty by default (``odom``, ``base_link``, ...).
     """

@@ -1,7 +1,8 @@
 """ROS distributions a bag can claim: their ``rosbags`` type stores and message definitions.
 
 A bag carries the definitions of the distro it claims: ROS 1 bags get Noetic's genuine full texts
-(comments included, see :mod:`bubblerob_env.ros.ros1_defs`), ROS 2 bags the Humble or Jazzy
+(comments included, see :mod:`~bubblerob_env.ros.messages.definitions`), ROS 2 bags the Humble
+or Jazzy
 definitions with their RIHS01 hashes (Jazzy's ``sensor_msgs/Range`` has a ``variance`` field that
 Humble's lacks).
 """
@@ -10,13 +11,22 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cache
+from typing import Any
 
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
-from bubblerob_env.ros import ros1_defs
+from bubblerob_env.ros.messages.definitions import msg_text, ros1_definition
 
-__all__ = ["DISTROS", "Distro", "get_distro", "message_definition", "typestore"]
+__all__ = [
+    "DISTROS",
+    "Distro",
+    "deserialize",
+    "get_distro",
+    "message_definition",
+    "serialize",
+    "typestore",
+]
 
 
 @dataclass(frozen=True)
@@ -57,29 +67,38 @@ def typestore(name: str) -> Typestore:
     """
     store = get_typestore(get_distro(name).store)
     if "tf2_msgs/msg/TFMessage" not in store.fielddefs:
-        text = ros1_defs.FULL_TEXT["tf2_msgs/TFMessage"].split("\n=")[0]
+        text = msg_text("tf2_msgs/TFMessage")
         store.register(get_types_from_msg(text, "tf2_msgs/msg/TFMessage"))
     return store
 
 
 @cache
 def message_definition(name: str, msgtype: str) -> tuple[str, str]:
-    """``(definition text, hash)`` of ``msgtype`` as a bag of distro ``name`` stores it.
+    """``(definition text, hash)`` of ``msgtype`` in a bag (or on a live topic) of distro ``name``.
 
-    ROS 1: the genuine full text and its md5sum; ROS 2: ``ros2msg`` text and RIHS01 hash.
+    ROS 1: the genuine full text (:func:`~bubblerob_env.ros.messages.definitions.ros1_definition`)
+    and the md5sum ``rosbags`` computes; ROS 2: ``ros2msg`` text and RIHS01 hash.
     """
-    distro = get_distro(name)
     store = typestore(name)
-    if distro.ros_version == 1:
-        ros1_name = msgtype.replace("/msg/", "/")
-        if ros1_name not in ros1_defs.FULL_TEXT:
-            raise KeyError(f"no vendored ROS 1 definition for {msgtype}")
+    if get_distro(name).ros_version == 1:
+        _, text = ros1_definition(msgtype)
         _, md5sum = store.generate_msgdef(msgtype, ros_version=1)
-        if md5sum != ros1_defs.MD5SUM[ros1_name]:
-            raise RuntimeError(
-                f"rosbags' Noetic {msgtype} (md5 {md5sum}) differs from the genuine definition "
-                f"(md5 {ros1_defs.MD5SUM[ros1_name]})"
-            )
-        return ros1_defs.FULL_TEXT[ros1_name], md5sum
+        return text, md5sum
     text, _ = store.generate_msgdef(msgtype, ros_version=2)
     return text, store.hash_rihs01(msgtype)
+
+
+def serialize(name: str, message: Any, msgtype: str) -> bytes:
+    """``message`` serialised as distro ``name`` puts it on the wire (ROS 1, little-endian CDR)."""
+    store = typestore(name)
+    if get_distro(name).encoding == "ros1":
+        return bytes(store.serialize_ros1(message, msgtype))
+    return bytes(store.serialize_cdr(message, msgtype, little_endian=True))
+
+
+def deserialize(name: str, raw: bytes, msgtype: str) -> Any:
+    """The message of type ``msgtype`` in ``raw`` bytes of distro ``name``."""
+    store = typestore(name)
+    if get_distro(name).encoding == "ros1":
+        return store.deserialize_ros1(raw, msgtype)
+    return store.deserialize_cdr(raw, msgtype)

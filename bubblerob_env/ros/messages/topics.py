@@ -16,8 +16,8 @@ __all__ = [
     "LATCHED_TOPICS",
     "MSGTYPES",
     "PRESETS",
-    "STEP_TOPICS",
     "Topics",
+    "namespace_prefix",
     "topics_preset",
 ]
 
@@ -43,14 +43,20 @@ MSGTYPES: dict[str, str] = {
 }
 """Message type of each topic key (ROS 2 style names, as ``rosbags`` spells them)."""
 
-STEP_TOPICS = ("cmd_vel", "left_motor_speed", "right_motor_speed", "action")
-"""Keys published once per ``step`` with the action, stamped when the action was sent."""
-
 LATCHED_TOPICS = ("tf_static", "episode")
 """Keys written latched (ROS 1) / transient-local (ROS 2): a late subscriber still gets them."""
 
 GLOBAL_TOPICS = ("tf", "tf_static", "clock")
 """Keys whose names a namespace does not change (tf and the clock are shared by all robots)."""
+
+
+def namespace_prefix(namespace: str) -> str:
+    """What goes before a relative name: ``"/robot2"`` for namespace ``robot2``, ``""`` for none.
+
+    The one place that applies a namespace (topics, tf frames, control topics, backends).
+    """
+    name = namespace.strip("/")
+    return "/" + name if name else ""
 
 
 @dataclass(frozen=True)
@@ -105,12 +111,12 @@ class Topics:
         Empty without a namespace. ``/tf`` is shared by every robot in a graph, so namespaced
         robots need frames of their own.
         """
-        name = self.namespace.strip("/")
-        return f"{name}/" if name else ""
+        prefix = namespace_prefix(self.namespace)
+        return prefix[1:] + "/" if prefix else ""
 
     def resolved(self) -> dict[str, str]:
         """Full name of every recorded key, namespace applied, in :data:`MSGTYPES` order."""
-        prefix = "/" + self.namespace.strip("/") if self.namespace.strip("/") else ""
+        prefix = namespace_prefix(self.namespace)
         names = {}
         for key in MSGTYPES:
             name = getattr(self, key)

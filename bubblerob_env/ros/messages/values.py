@@ -1,6 +1,7 @@
-"""Env frames -> flat field values: the first stage of :mod:`~bubblerob_env.ros.convert`.
+"""Env frames -> flat field values: the first stage of :mod:`~bubblerob_env.ros.messages.convert`.
 
-:class:`FrameValues` (a base of :class:`~bubblerob_env.ros.convert.RosConverter`) turns one env
+:class:`FrameValues` (a base of :class:`~bubblerob_env.ros.messages.convert.RosConverter`) turns
+one env
 frame, the observation and info of a ``reset`` or ``step`` plus the action that led to it, into
 field values in ROS units and conventions. The recorder's fast path takes them as a tuple
 (:meth:`FrameValues.frame_args`), which the generated packer reads by position without building a
@@ -9,17 +10,25 @@ dict; message builders take them as a dict (:meth:`FrameValues.frame_values`).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, SupportsFloat
 
 import numpy as np
 from numpy.typing import NDArray
 
 if TYPE_CHECKING:
-    from bubblerob_env.ros.convert import EnvSpecs
+    from bubblerob_env.specs import EnvSpecs
 
-__all__ = ["SCALAR_NAMES", "STEP_NAMES", "FrameValues"]
+__all__ = [
+    "ROW",
+    "SCALAR_NAMES",
+    "STEP_NAMES",
+    "FrameValues",
+    "Slot",
+    "rep117",
+    "row_columns",
+]
 
 SCALAR_NAMES = (
     "sec", "nanosec", "seq", "sim_time", "proximity", "triggered",
@@ -29,6 +38,48 @@ SCALAR_NAMES = (
 STEP_NAMES = (
     "action", "left", "right", "linear_x", "angular_z", "reward", "terminated", "truncated",
 )  # fmt: skip
+
+
+ROW = (
+    ("info", "position", 3), ("info", "quaternion_wxyz", 4), ("info", "body_twist", 6),
+    ("info", "wheel_command", 2), ("obs", "proximity", 1), ("action", "action", 2),
+    ("obs", "laser", None),
+)  # fmt: skip
+"""The numbers of a frame after a step, as a batch gathers them into one ``float64`` row:
+``(source, key, width)``, in row order (the laser last, ``num_rays`` wide, if the env has one)."""
+
+
+def row_columns(num_rays: int) -> dict[str, slice]:
+    """Where each key of :data:`ROW` lies in a gathered row."""
+    columns, start = {}, 0
+    for _, key, width in ROW:
+        width = num_rays if width is None else width
+        columns[key] = slice(start, start + width)
+        start += width
+    return columns
+
+
+def rep117(ranges: NDArray[Any], range_min: float, range_max: float) -> NDArray[Any]:
+    """REP 117, in place, the one place it is written; returns ``ranges``.
+
+    Readings at or beyond ``range_max`` (no return) become ``+inf``, those below ``range_min``
+    (too close) ``-inf``. The comparisons are in ``ranges``' dtype.
+    """
+    ranges[ranges >= range_max] = np.inf
+    ranges[ranges < range_min] = -np.inf
+    return ranges
+
+
+@dataclass(frozen=True)
+class Slot:
+    """A placeholder for a value filled in at encode time.
+
+    A scalar slot stands for one number; a slot with ``count`` stands for a fixed-length array or a
+    sequence of ``count`` elements, and is filled with their little-endian bytes.
+    """
+
+    name: str
+    count: int | None = None
 
 
 class FrameValues:
@@ -68,11 +119,9 @@ class FrameValues:
         # Called every step while recording: plain calls, a tuple (no dict), numpy for the scan.
         sec, nanosec = divmod(stamp_ns, 1_000_000_000)
         qw, qx, qy, qz = info["quaternion_wxyz"].tolist()
-        proximity = obs["proximity"].item(0)
-        if proximity >= self._proximity_max:  # REP 117
-            proximity = math.inf
-        elif proximity < self._proximity_min:
-            proximity = -math.inf
+        proximity = rep117(
+            obs["proximity"].astype(np.float64), self._proximity_min, self._proximity_max
+        ).item(0)
         args: tuple[Any, ...] = (
             sec, nanosec, seq & 0xFFFFFFFF, stamp_ns * 1e-9, proximity,
             bool(info["proximity_triggered"]), *info["position"].tolist(), qx, qy, qz, qw,
@@ -80,9 +129,7 @@ class FrameValues:
         )  # fmt: skip
         laser = self.specs.laser
         if laser is not None:
-            ranges = obs["laser"].astype("<f4")  # a copy
-            ranges[ranges >= laser.range_max] = np.inf
-            ranges[ranges < laser.range_min] = -np.inf
+            ranges = rep117(obs["laser"].astype("<f4"), laser.range_min, laser.range_max)
             args += (ranges.tobytes(),)
         if self.specs.camera is not None:
             args += (np.ascontiguousarray(obs["camera"], dtype=np.uint8).tobytes(),)

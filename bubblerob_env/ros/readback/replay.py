@@ -19,11 +19,12 @@ import numpy as np
 from rosbags.highlevel import AnyReader
 
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
-from bubblerob_env.ros.bagread import bag_root, find_episodes
-from bubblerob_env.ros.convert import EnvSpecs
-from bubblerob_env.ros.serialize import FrameSerializer
-from bubblerob_env.ros.topics import MSGTYPES, Topics
-from bubblerob_env.ros.writers import Record
+from bubblerob_env.ros.fastpath.framing import Record
+from bubblerob_env.ros.fastpath.serializer import FrameSerializer
+from bubblerob_env.ros.messages.distros import deserialize
+from bubblerob_env.ros.messages.topics import MSGTYPES, Topics
+from bubblerob_env.ros.readback.summary import bag_root, find_episodes
+from bubblerob_env.specs import EnvSpecs
 
 __all__ = ["Divergence", "ReplayError", "ReplayReport", "replay_bag"]
 
@@ -207,9 +208,9 @@ def _replay_episode(
     start = meta["start_time_ns"]
     offset = start - round(float(info["sim_time"]) * 1e9)
     seq = meta["first_seq"]
-    convert = serializer.converter.frame_values
-    values = convert(obs, info, start, seq)
-    divergence = check(serializer.frame(values, start, start, False), 0)
+    convert = serializer.converter.frame_args
+    args = convert(obs, info, start, seq)
+    divergence = check(serializer.frame(args, start, start, False), 0)
     if divergence is not None:
         return 0, compared, divergence
     last = start
@@ -217,8 +218,8 @@ def _replay_episode(
         obs, reward, terminated, truncated, info = env.step(action)
         seq += 1
         stamp = offset + round(float(info["sim_time"]) * 1e9)
-        values = convert(obs, info, stamp, seq, action, float(reward), terminated, truncated)
-        divergence = check(serializer.frame(values, stamp, last, True), step)
+        args = convert(obs, info, stamp, seq, action, float(reward), terminated, truncated)
+        divergence = check(serializer.frame(args, stamp, last, True), step)
         if divergence is not None:
             return step, compared, divergence
         last = stamp
@@ -234,8 +235,8 @@ def _replay_episode(
 
 
 def _decoder(serializer: FrameSerializer) -> Any:
-    store = serializer.converter.store
-    return store.deserialize_ros1 if serializer.encoding == "ros1" else store.deserialize_cdr
+    name = serializer.distro.name
+    return lambda raw, msgtype: deserialize(name, raw, msgtype)
 
 
 def _field_difference(

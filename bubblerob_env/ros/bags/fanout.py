@@ -1,148 +1,28 @@
-"""Serialise env frames once per distro and hand the bytes to every sink of that distro.
+"""Frames in, serialised records out to every sink; each message serialised once per distro.
 
-:class:`FrameSerializer` knows, for one distro and topic set, which messages a frame has and how
-to serialise each (compiled once, see :mod:`~bubblerob_env.ros.encode`). :class:`MessageFanout`
-turns a frame into field values once, serialises it once per distro among its sinks, and gives
-the same bytes to each sink: a recorder has one sink; live publishing adds more.
-
-Bag sinks that frame records themselves (MCAP, ROS 1: :meth:`~bubblerob_env.ros.sinks.BagSink.
-framing`) get the whole frame, record headers included, from one generated ``struct`` call of a
-:class:`FramePacker`; other sinks of that distro get records sliced from those bytes. When every
-sink frames records (a recorder), frames after steps are gathered and packed in batches instead
-(:mod:`~bubblerob_env.ros.batch`): the same bytes at a fraction of the cost per step.
+:class:`MessageFanout` turns a frame into field values once, packs it once per distro and framing
+among its sinks (:class:`~bubblerob_env.ros.fastpath.serializer.FrameSerializer`), and gives the
+same bytes to each sink: a recorder has one sink; live publishing adds more. When every sink
+frames records (a recorder), frames after steps are gathered and packed in batches instead
+(:mod:`~bubblerob_env.ros.fastpath.batch`): the same bytes at a fraction of the cost per step.
 """
 
 from __future__ import annotations
 
-import struct
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping
 from typing import Any, SupportsFloat
 
 from numpy.typing import NDArray
 
-from bubblerob_env.ros.batch import BatchPacker, FrameBatch
-from bubblerob_env.ros.convert import EnvSpecs, RosConverter
-from bubblerob_env.ros.encode import CompiledMessage, Item, compile_items, compile_message
-from bubblerob_env.ros.framing import FrameLayout, Framing, Record
-from bubblerob_env.ros.sinks import BagSink
-from bubblerob_env.ros.topics import LATCHED_TOPICS, MSGTYPES, Topics
-from bubblerob_env.ros.writers import PackedBatchWriter, PackedWriter
+from bubblerob_env.ros.bags.sinks import BagSink
+from bubblerob_env.ros.bags.writers import PackedBatchWriter, PackedWriter
+from bubblerob_env.ros.fastpath.batch import FrameBatch
+from bubblerob_env.ros.fastpath.framing import Framing
+from bubblerob_env.ros.fastpath.serializer import FramePacker, FrameSerializer
+from bubblerob_env.ros.messages.topics import Topics
+from bubblerob_env.specs import EnvSpecs
 
-__all__ = ["FramePacker", "FrameSerializer", "MessageFanout"]
-
-_Plan = list[tuple[str, CompiledMessage, bool]]  # (topic, encoder, logged at the action stamp)
-
-
-class FramePacker:
-    """One frame's records, each behind its :class:`~bubblerob_env.ros.framing.Framing` header.
-
-    The whole frame is packed by one generated ``struct`` call (constants folded, see
-    :func:`~bubblerob_env.ros.encode.compile_items`) straight from the tuple of
-    :meth:`~bubblerob_env.ros.convert.RosConverter.frame_args`; :attr:`layout` tells the writer
-    where each record starts, so that it can index them when the chunk closes.
-    """
-
-    def __init__(self, plan: _Plan, framing: Framing, names: Sequence[str]) -> None:
-        items: list[Item] = []
-        channels, offsets, action = [], [], []
-        self._payloads: list[tuple[str, int, int, bool]] = []
-        ids = dict(framing.ids)
-        pos = 0
-        for topic, encoder, is_action in plan:
-            header = framing.header(topic, encoder.size, is_action)
-            head = struct.calcsize("<" + "".join(code for code, _ in header))
-            channels.append(ids[topic])
-            offsets.append(pos)
-            action.append(is_action)
-            self._payloads.append((topic, pos + head, pos + head + encoder.size, is_action))
-            items += header
-            items += encoder.items
-            pos += head + encoder.size
-        compiled = compile_items(items)
-        assert compiled.size == pos
-        self.layout = FrameLayout(tuple(channels), tuple(offsets), tuple(action), pos)
-        self.pack: Callable[[tuple[Any, ...], int, int], bytes] = compiled.tuple_encoder(
-            names, ("log_ns", "action_log_ns")
-        )
-        """``pack(frame_args, stamp_ns, action_stamp_ns)``: the frame's bytes."""
-        self.batch = BatchPacker(items, pos)
-        """Packs many frames at once from :meth:`~bubblerob_env.ros.batch.FrameBatch.columns`."""
-
-    def records(self, data: bytes, stamp_ns: int, action_stamp_ns: int) -> list[Record]:
-        """The frame's records, their messages sliced from packed ``data``."""
-        return [
-            (topic, action_stamp_ns if is_action else stamp_ns, data[start:end])
-            for topic, start, end, is_action in self._payloads
-        ]
-
-
-class FrameSerializer:
-    """Serialised messages of frames, for one distro and topic set."""
-
-    def __init__(self, specs: EnvSpecs, distro: str, topics: Topics) -> None:
-        self.converter = RosConverter(specs, distro, topics.frame_prefix)
-        self.names = topics.resolved()
-        store = self.converter.store
-        encoding = self.converter.distro.encoding
-        self.encoding = encoding
-        slots = self.converter.slots()
-        action_keys = set(self.converter.action_keys())
-
-        def plan(stepped: bool) -> _Plan:
-            return [
-                (self.names[key], encoders[key], key in action_keys)
-                for key in self.converter.frame_keys(stepped)
-                if key in self.names
-            ]
-
-        encoders = {
-            key: compile_message(store, MSGTYPES[key], self.converter.message(key, slots), encoding)
-            for key in self.converter.frame_keys(True)
-            if key in self.names
-        }
-        self._plans = {False: plan(False), True: plan(True)}
-        self._packers: dict[tuple[Framing, bool], FramePacker] = {}
-
-    def packer(self, framing: Framing, stepped: bool) -> FramePacker:
-        """The packer of frames after a ``step`` (or a ``reset``) for ``framing`` (cached)."""
-        key = (framing, stepped)
-        if key not in self._packers:
-            names = self.converter.value_names(stepped)
-            self._packers[key] = FramePacker(self._plans[stepped], framing, names)
-        return self._packers[key]
-
-    def topics(self) -> list[tuple[str, str, bool]]:
-        """``(name, msgtype, latched)`` of every topic a bag of these frames holds."""
-        keys = [*self.converter.frame_keys(True), *LATCHED_TOPICS]
-        return [(self.names[k], MSGTYPES[k], k in LATCHED_TOPICS) for k in keys if k in self.names]
-
-    def frame(
-        self, values: Mapping[str, Any], stamp_ns: int, action_stamp_ns: int, stepped: bool
-    ) -> list[Record]:
-        """Records of one frame; the action's topics are logged at ``action_stamp_ns``."""
-        return [
-            (name, action_stamp_ns if is_action else stamp_ns, encoder.encode(values))
-            for name, encoder, is_action in self._plans[stepped]
-        ]
-
-    def _serialize(self, key: str, message: Any) -> bytes:
-        store = self.converter.store
-        if self.encoding == "ros1":
-            return bytes(store.serialize_ros1(message, MSGTYPES[key]))
-        return bytes(store.serialize_cdr(message, MSGTYPES[key], little_endian=True))
-
-    def tf_static(self, stamp_ns: int) -> list[Record]:
-        """The ``/tf_static`` record (none if that topic is left out)."""
-        if "tf_static" not in self.names:
-            return []
-        message = self.converter.tf_static(stamp_ns)
-        return [(self.names["tf_static"], stamp_ns, self._serialize("tf_static", message))]
-
-    def episode(self, metadata: Mapping[str, Any], stamp_ns: int) -> Record:
-        """The episode metadata record (``std_msgs/String`` holding JSON)."""
-        message = self.converter.episode(metadata)
-        return (self.names["episode"], stamp_ns, self._serialize("episode", message))
-
+__all__ = ["MessageFanout"]
 
 _Send = Callable[[tuple[Any, ...], int, int], None]  # (frame args, stamp, action stamp)
 
@@ -152,11 +32,12 @@ class MessageFanout:
 
     Per frame the work is planned once per set of sinks (:meth:`_update_routes`): one send per
     distro, which packs the frame once per framing and hands the bytes to each sink's
-    :meth:`~bubblerob_env.ros.sinks.BagSink.packed_writer`; sinks without framing get records.
+    :meth:`~bubblerob_env.ros.bags.sinks.BagSink.packed_writer`; sinks without framing get records.
 
     If every sink frames records (bags, no live sink), frames after steps are batched: up to
     ``batch_frames`` of them (and about a MiB) are gathered, then converted and packed together
-    and handed to each sink's :meth:`~bubblerob_env.ros.sinks.BagSink.packed_batch_writer`. Every
+    and handed to each sink's
+    :meth:`~bubblerob_env.ros.bags.sinks.BagSink.packed_batch_writer`. Every
     other write (records, a reset's frame, adding or removing a sink) and :meth:`flush` first
     writes the pending frames, so the bags hold the same bytes in the same order.
     ``batch_frames=0`` sends every frame at once. Close a sink only after :meth:`remove_sink`
@@ -170,7 +51,7 @@ class MessageFanout:
         self.topics = topics
         self.batch_frames = batch_frames
         self._batch: FrameBatch | None = None  # gathering frames after steps, if batching
-        self._batch_sends: list[tuple[BatchPacker, FrameLayout, list[PackedBatchWriter]]] = []
+        self._batch_sends: list[tuple[FramePacker, list[PackedBatchWriter]]] = []
         self._serializers: dict[str, FrameSerializer] = {}
         self._sinks: dict[str, list[BagSink]] = {}
         self._sends: dict[str, tuple[_Send, _Send]] = {}  # per distro: after a reset, a step
@@ -232,7 +113,7 @@ class MessageFanout:
         size = 1
         for (distro, framing), writers in groups.items():
             packer = self._serializers[distro].packer(framing, stepped=True)
-            self._batch_sends.append((packer.batch, packer.layout, writers))
+            self._batch_sends.append((packer, writers))
             size = max(size, packer.layout.size)
         # About a chunk's worth (1 MiB) at most: camera frames are ~50x larger than the rest.
         self._batch = FrameBatch(self.specs, max(1, min(self.batch_frames, 2**20 // size)))
@@ -245,10 +126,10 @@ class MessageFanout:
         count = len(batch)
         columns = batch.columns()
         stamps, action_stamps = columns["log_ns"], columns["action_log_ns"]
-        for packer, layout, writers in self._batch_sends:
-            data = packer.pack(columns, count)
+        for packer, writers in self._batch_sends:
+            data = packer.pack_many(columns, count)
             for write in writers:
-                write(data, layout, stamps, action_stamps)
+                write(data, packer.layout, stamps, action_stamps)
 
     def _sender(self, distro: str, stepped: bool) -> _Send:
         serializer = self._serializers[distro]
@@ -261,7 +142,7 @@ class MessageFanout:
             else:
                 packer = serializer.packer(framing, stepped)
                 groups.setdefault(framing, (packer, []))[1].append(sink.packed_writer())
-        packs = [(packer.pack, packer.layout, writers) for packer, writers in groups.values()]
+        packs = [(packer.pack_one, packer.layout, writers) for packer, writers in groups.values()]
         if len(packs) == 1 and len(packs[0][2]) == 1 and not plain:  # a recorder: one bag
             ((pack, layout, (write,)),) = packs
 
@@ -269,8 +150,9 @@ class MessageFanout:
                 write(pack(args, stamp, action_stamp), layout, stamp, action_stamp)
 
             return send_one
-        first = next(iter(groups.values()), (None, []))[0]
-        names = serializer.converter.value_names(stepped)
+        # Sinks that take records get them sliced from a packed frame: the first framing's, or
+        # else one packed without headers.
+        slicer = next(iter(groups.values()), (serializer.packer(None, stepped), []))[0]
 
         def send(args: tuple[Any, ...], stamp: int, action_stamp: int) -> None:
             sliced: bytes | None = None  # the first framing's bytes
@@ -280,15 +162,18 @@ class MessageFanout:
                 for write in writers:
                     write(data, layout, stamp, action_stamp)
             if plain:
-                if first is not None and sliced is not None:  # sliced: serialised once
-                    records = first.records(sliced, stamp, action_stamp)
-                else:
-                    values = dict(zip(names, args, strict=True))
-                    records = serializer.frame(values, stamp, action_stamp, stepped)
+                if sliced is None:
+                    sliced = slicer.pack_one(args, stamp, action_stamp)
+                records = slicer.records(sliced, stamp, action_stamp)
                 for sink in plain:
                     sink.write_batch(records)
 
         return send
+
+    @property
+    def batching(self) -> bool:
+        """Whether frames after steps are gathered into batches (every sink frames records)."""
+        return self._batch is not None
 
     @property
     def sinks(self) -> list[BagSink]:

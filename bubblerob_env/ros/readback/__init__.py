@@ -1,0 +1,1 @@
+"""Reading bags back: what a bag holds (summary, episodes) and replay against a re-simulation."""

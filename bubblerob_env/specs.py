@@ -1,0 +1,45 @@
+"""``EnvSpecs``: what an env tells the outside about itself, as plain data.
+
+The sensor specs (laser, proximity, camera), the static frames, the drive and the action's scale:
+everything the ROS layer needs to turn an env frame into messages. Core module: imports nothing
+from ``bubblerob_env.ros``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from bubblerob_env.kinematics import DiffDrive
+from bubblerob_env.sensors import CameraSpec, LaserSpec, ProximitySpec, StaticTransform
+
+__all__ = ["EnvSpecs"]
+
+
+@dataclass(frozen=True)
+class EnvSpecs:
+    """The env's sensors, frames, drive and action scale (all of it plain data)."""
+
+    laser: LaserSpec | None
+    proximity: ProximitySpec
+    camera: CameraSpec | None
+    static_transforms: tuple[StaticTransform, ...]
+    drive: DiffDrive
+    action_type: str
+    max_linear_speed: float
+    max_angular_speed: float
+
+    @classmethod
+    def from_env(cls, env: Any) -> EnvSpecs:
+        """Read the specs of a ``BubbleRobEnv`` (or any wrapper around one)."""
+        base = env.unwrapped
+        return cls(
+            base.laser_spec,
+            base.proximity_spec,
+            base.camera_spec,
+            tuple(base.static_transforms),
+            base.drive,
+            base.action_type,
+            float(base.max_linear_speed),
+            float(base.max_angular_speed),
+        )
