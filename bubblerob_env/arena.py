@@ -40,9 +40,8 @@ ASSETS_DIR = Path(__file__).resolve().parent / "assets"
 DEFAULT_SCENE = ASSETS_DIR / "arena.xml"
 
 ROBOT_RADIUS = 0.11
-"""Radius of a circle around base_link that holds the whole robot (wheels' outer rims), metres."""
-OBSTACLE_HEIGHT = 0.3
-_WALL_THICKNESS = 0.05  # half-thickness of the arena walls, as in arena.xml
+"""Radius of a circle around base_link that holds the whole robot (wheels' outer rims, 0.108 m,
+rounded up), metres; ``tests/test_assets.py`` checks it against the model's geoms."""
 _PARKED_Z = -10.0  # unused obstacle slots wait below the floor, out of every ray's reach
 _MAX_TRIES = 200
 
@@ -77,7 +76,8 @@ def build_model(
     """Compile a scene with ``max_obstacles`` cylinder and box slots added.
 
     If the scene has the default arena's walls they are moved and resized to enclose a square of
-    side ``arena_size``, and the floor is resized to match.
+    side ``arena_size`` (keeping each wall's thickness and height from the scene), and the floor is
+    resized to match. The slots take their height from the scene's ``obstacle`` class.
 
     Returns:
         The compiled model and whether the scene has the resizable arena walls.
@@ -87,21 +87,21 @@ def build_model(
     has_arena = all(wall is not None for wall in walls)
     if has_arena:
         half = arena_size / 2.0
-        outer = half + 2 * _WALL_THICKNESS
+        outer = half
         for wall, (x, y) in zip(walls, ((0, 1), (0, -1), (1, 0), (-1, 0)), strict=True):
-            wall.pos = [
-                x * (half + _WALL_THICKNESS),
-                y * (half + _WALL_THICKNESS),
-                OBSTACLE_HEIGHT / 2,
-            ]
+            thickness = float(min(wall.size[0], wall.size[1]))  # half-thickness
+            height = float(wall.size[2])  # half-height; walls stand on the floor
+            wall.pos = [x * (half + thickness), y * (half + thickness), height]
             wall.size = [
-                outer if x == 0 else _WALL_THICKNESS,
-                outer if y == 0 else _WALL_THICKNESS,
-                OBSTACLE_HEIGHT / 2,
+                half + 2 * thickness if x == 0 else thickness,
+                half + 2 * thickness if y == 0 else thickness,
+                height,
             ]
+            outer = max(outer, half + 2 * thickness)
         floor = spec.geom(names.FLOOR_GEOM)
         floor.size = [outer + 0.5, outer + 0.5, floor.size[2]]
     obstacle_class = spec.find_default(names.OBSTACLE_CLASS)
+    half_height = float(obstacle_class.geom.size[2])
     for i in range(max_obstacles):
         for prefix, geom_type in (
             (names.CYLINDER_SLOT_PREFIX, mujoco.mjtGeom.mjGEOM_CYLINDER),
@@ -114,7 +114,9 @@ def build_model(
                 default=obstacle_class,
                 name=f"{prefix}{i}",
                 type=geom_type,
-                size=[0.1, 0.1, OBSTACLE_HEIGHT / 2],
+                size=[0.1, 0.1, half_height]
+                if geom_type == mujoco.mjtGeom.mjGEOM_BOX
+                else [0.1, half_height, 0.0],
             )
     return spec.compile(), has_arena
 
@@ -139,6 +141,10 @@ class ObstacleSlots:
                     )
                 )
             self._free[kind] = slots
+        # Half the obstacles' height: the scene's obstacle class, kept in the box slots' size[2].
+        self.half_height = 0.0
+        if max_obstacles:
+            self.half_height = float(model.geom_size[self._free["box"][0][0]][2])
 
     @property
     def geom_ids(self) -> list[int]:
@@ -153,7 +159,7 @@ class ObstacleSlots:
         Call after ``mj_resetData`` (which moves mocap bodies back to their compiled pose) and
         before ``mj_forward``.
         """
-        half_height = OBSTACLE_HEIGHT / 2
+        half_height = self.half_height
         free = {kind: iter(slots) for kind, slots in self._free.items()}
         used = []
         quat = np.empty(4)

@@ -7,10 +7,45 @@ import numpy as np
 import pytest
 
 from bubblerob_env import names
-from bubblerob_env.arena import ASSETS_DIR, build_model
+from bubblerob_env.arena import ASSETS_DIR, ROBOT_RADIUS, build_model
 
 SCENES = sorted([ASSETS_DIR / "arena.xml", *(ASSETS_DIR / "scenes").glob("*.xml")])
-PIECES = ("common.xml", "robot.xml", "sensors.xml")
+ROBOT_FILE = ASSETS_DIR / "bubblerob.xml"
+PIECES = ("bubblerob.xml", "common.xml")
+
+
+def test_robot_file_compiles_alone_with_its_motors_sensors_and_names():
+    model = mujoco.MjModel.from_xml_path(str(ROBOT_FILE))
+    for kind, required in names.REQUIRED_NAMES.items():
+        for name in required:
+            if name != names.FLOOR_GEOM:  # the floor is the scene's
+                assert getattr(model, kind)(name).name == name
+    assert model.nu == 2 and model.opt.integrator == mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+
+
+def test_robot_radius_bounds_every_robot_geom_seen_from_above():
+    # Each geom's horizontal reach from base_link, from the compiled model: sphere and cylinder
+    # extents in the plane (cylinders' axes are along y for wheels, z for the laser housing).
+    model = mujoco.MjModel.from_xml_path(str(ROBOT_FILE))
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    base = model.body(names.BASE_BODY).id
+    reach = 0.0
+    for g in range(model.ngeom):
+        centre = data.geom_xpos[g] - data.xpos[base]
+        size = model.geom_size[g]
+        if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_SPHERE:
+            corners = [centre[:2] + size[0] * np.array(d) for d in ((1, 0), (-1, 0), (0, 1))]
+        else:  # a cylinder: radius size[0] around its axis, half-length size[1] along it
+            axis = data.geom_xmat[g].reshape(3, 3)[:, 2][:2]
+            side = np.array([-axis[1], axis[0]])
+            corners = [
+                centre[:2] + a * size[1] * axis + b * size[0] * side
+                for a in (-1, 1)
+                for b in (-1, 1)
+            ]
+        reach = max(reach, *(float(np.hypot(*c)) for c in corners))
+    assert 0.10 < reach <= ROBOT_RADIUS
 
 
 @pytest.mark.parametrize("scene", SCENES, ids=lambda p: p.name)
