@@ -17,6 +17,7 @@ ROOT = Path(__file__).resolve().parents[1]
         ("env_speed.py", ["laser 360, no camera", "floor: mj_step", "Ant-v5"]),
         ("record_speed.py", ["mcap", "ros1", "sqlite3"]),
         ("train_speed.py", ["HalfCheetah-v5, 1 env (anchor)", "2 envs, SubprocVecEnv"]),
+        ("soak.py", ["undetected penetration", "memory growth after warm-up", "PASSED"]),
         pytest.param(
             "live_speed.py",
             ["| off |", "| 64x64 |", "received msg/s"],
