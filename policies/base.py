@@ -3,14 +3,42 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
 
 from bubblerob_env.kinematics import DiffDrive
 
-__all__ = ["ActionMapper", "batch_size", "take"]
+__all__ = ["ActionMapper", "Observation", "Policy", "batch_size", "take"]
+
+Observation = dict[str, NDArray[Any]]
+"""One BubbleRob observation (keys ``laser``, ``proximity``, ``velocity``, maybe ``camera``), or a
+batch of them (each value with a leading batch axis)."""
+
+
+@runtime_checkable
+class Policy(Protocol):
+    """What ``load_policy`` returns: SB3's ``predict`` and a ``reset`` between episodes.
+
+    ``predict`` takes one observation or a batch and gives the action (shape (2,)) or actions
+    (shape (n, 2)), float32 in [-1, 1], and the policy's state (None for stateless policies).
+    Stateful policies start over where ``episode_start`` is true, or after ``reset()``.
+    """
+
+    def predict(
+        self,
+        observation: Observation,
+        state: Any = None,
+        episode_start: NDArray[np.bool_] | None = None,
+        deterministic: bool = True,
+    ) -> tuple[NDArray[np.float32], Any]:
+        """Action(s) for ``observation`` and the policy's state."""
+        ...
+
+    def reset(self) -> None:
+        """Forget any state carried between calls."""
+        ...
 
 
 def batch_size(obs: dict[str, NDArray[Any]]) -> int | None:

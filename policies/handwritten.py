@@ -3,17 +3,14 @@
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from bubblerob_env.sensors import LaserSpec
-from policies.base import ActionMapper, batch_size, take
+from policies.base import ActionMapper, Observation, batch_size, take
 
 __all__ = ["LaserPolicy", "RandomPolicy", "ReactivePolicy"]
-
-Observation = dict[str, NDArray[Any]]
 
 
 class _Policy:

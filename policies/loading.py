@@ -1,7 +1,8 @@
-"""``load_policy``: built-in controllers by name, trained SB3 models by path."""
+"""``load_policy``: built-in controllers by name, trained policies as ONNX or SB3 ``.zip`` files."""
 
 from __future__ import annotations
 
+import json
 import zipfile
 from pathlib import Path
 from typing import Any
@@ -9,15 +10,32 @@ from typing import Any
 import gymnasium as gym
 
 from bubblerob_env import BubbleRobEnv
-from policies.base import ActionMapper
+from policies.base import ActionMapper, Policy
 from policies.handwritten import LaserPolicy, RandomPolicy, ReactivePolicy
 
-__all__ = ["BUILTIN_POLICIES", "SHIPPED_POLICIES", "load_policy"]
+__all__ = [
+    "BUILTIN_POLICIES",
+    "SHIPPED_POLICIES",
+    "PolicyEnvMismatchError",
+    "check_env",
+    "env_signature",
+    "load_policy",
+]
 
 BUILTIN_POLICIES = ("reactive", "laser", "random")
 TRAINED_DIR = Path(__file__).resolve().parent / "trained"
-SHIPPED_POLICIES = {"ppo": TRAINED_DIR / "ppo_bubblerob_v0.zip"}
-"""Trained policies shipped with the package, for ``gym.make("BubbleRob-v0")`` with no kwargs."""
+SHIPPED_POLICIES = {"ppo": TRAINED_DIR / "ppo_bubblerob_v0.onnx"}
+"""Trained policies shipped with the package, exported to ONNX from the SB3 ``.zip`` beside them
+(``python -m policies.export_onnx``) and run with onnxruntime, without torch. They were trained for
+``gym.make("BubbleRob-v0")`` with no kwargs."""
+
+NORMALIZATION_SUFFIX = "_vecnormalize.pkl"
+"""A model ``NAME.zip`` trained with ``normalize: true`` keeps its statistics in
+``NAME_vecnormalize.pkl`` beside it (written by ``python -m train``)."""
+
+
+class PolicyEnvMismatchError(ValueError):
+    """A trained policy was asked to drive an env unlike the one it was trained in."""
 
 
 def _unwrap(env: gym.Env[Any, Any] | None) -> BubbleRobEnv:
@@ -29,22 +47,65 @@ def _unwrap(env: gym.Env[Any, Any] | None) -> BubbleRobEnv:
     return base
 
 
-def load_policy(name_or_path: str | Path, env: gym.Env[Any, Any] | None = None, seed: int = 0):
+def env_signature(env: gym.Env[Any, Any]) -> dict[str, Any]:
+    """What a trained policy depends on: action type, laser rays and camera size (or None)."""
+    base = _unwrap(env)
+    camera = base.camera_spec
+    return {
+        "action_type": base.action_type,
+        "laser_num_rays": 0 if base.laser_spec is None else int(base.laser_spec.num_rays),
+        "camera": None if camera is None else [int(camera.height), int(camera.width)],
+    }
+
+
+def _describe(signature: dict[str, Any]) -> str:
+    camera = signature.get("camera")
+    return (
+        f"action_type={signature.get('action_type')!r}, "
+        f"laser_num_rays={signature.get('laser_num_rays')}, "
+        f"camera={'off' if not camera else 'x'.join(map(str, camera))}"
+    )
+
+
+def check_env(
+    name: str, trained: dict[str, Any], env: gym.Env[Any, Any], trained_kwargs: Any = None
+) -> None:
+    """Raise a one-line :class:`PolicyEnvMismatchError` if ``env`` differs from ``trained``."""
+    actual = env_signature(env)
+    differing = [key for key in ("action_type", "laser_num_rays", "camera") if key in trained]
+    if all(trained[key] == actual[key] for key in differing):
+        return
+    kwargs = "" if trained_kwargs is None else f" (gym.make kwargs {trained_kwargs})"
+    raise PolicyEnvMismatchError(
+        f"policy {name!r} was trained for an env with {_describe(trained)}{kwargs}, "
+        f"but this env has {_describe(actual)}: make the env it was trained for, or train one "
+        "for this env"
+    )
+
+
+def load_policy(
+    name_or_path: str | Path, env: gym.Env[Any, Any] | None = None, seed: int = 0
+) -> Policy:
     """A policy for ``env`` (default: ``BubbleRob-v0`` with default kwargs).
 
     Args:
         name_or_path: ``"reactive"``, ``"laser"``, ``"random"``, ``"ppo"`` (the shipped trained
-            policy) or a path to an SB3 ``.zip`` (PPO or SAC).
+            policy, run with onnxruntime), the path of an ONNX file written by
+            ``python -m policies.export_onnx``, or the path of an SB3 ``.zip`` (PPO or SAC; needs
+            the [train] extra).
         env: The env (or a wrapper of it) the policy will act in: its action type, speed limits
-            and laser geometry shape the built-in controllers' actions.
+            and laser geometry shape the built-in controllers' actions, and a trained policy is
+            checked against the env it was trained for.
         seed: Seed of the ``random`` policy.
 
     Raises:
-        ValueError: For an unknown name or a file that is not an SB3 model.
+        ValueError: For an unknown name or a file that is not a policy.
+        PolicyEnvMismatchError: (a ``ValueError``) when a trained policy's env (action type,
+            laser rays, camera) differs from ``env``.
     """
     name = str(name_or_path)
     if name in SHIPPED_POLICIES:
-        return _load_sb3(SHIPPED_POLICIES[name])
+        return _load_onnx(SHIPPED_POLICIES[name], env, name)
     if name in BUILTIN_POLICIES:
         base = _unwrap(env)
         mapper = ActionMapper(
@@ -58,19 +119,37 @@ def load_policy(name_or_path: str | Path, env: gym.Env[Any, Any] | None = None, 
             return LaserPolicy(mapper, base.laser_spec)
         return RandomPolicy(mapper, seed)
     path = Path(name)
-    if path.suffix == ".zip":
+    if path.suffix in (".zip", ".onnx"):
         if not path.is_file():
             raise ValueError(f"policy file {path} does not exist")
-        return _load_sb3(path)
+        if path.suffix == ".onnx":
+            return _load_onnx(path, env, name)
+        return _load_sb3(path, env, name)
     raise ValueError(
         f"unknown policy {name!r}: use one of {[*BUILTIN_POLICIES, *SHIPPED_POLICIES]} "
-        "or a path to an SB3 .zip"
+        "or a path to an exported .onnx or an SB3 .zip"
     )
 
 
-NORMALIZATION_SUFFIX = "_vecnormalize.pkl"
-"""A model ``NAME.zip`` trained with ``normalize: true`` keeps its statistics in
-``NAME_vecnormalize.pkl`` beside it (written by ``python -m train``)."""
+def _load_onnx(path: Path, env: gym.Env[Any, Any] | None, name: str) -> Policy:
+    from policies.onnx_policy import OnnxPolicy
+
+    policy = OnnxPolicy(path)
+    trained = policy.metadata.get("env")
+    if env is not None and trained is not None:
+        check_env(name, trained, env, policy.metadata.get("env_kwargs"))
+    if env is not None:
+        _check_observation_keys(name, list(policy.input_names), env)
+    return policy
+
+
+def _check_observation_keys(name: str, keys: list[str], env: gym.Env[Any, Any]) -> None:
+    space = env.observation_space
+    if isinstance(space, gym.spaces.Dict) and sorted(keys) != sorted(space.spaces):
+        raise PolicyEnvMismatchError(
+            f"policy {name!r} takes observation keys {sorted(keys)}, "
+            f"but this env gives {sorted(space.spaces)}"
+        )
 
 
 class NormalizedPolicy:
@@ -80,7 +159,13 @@ class NormalizedPolicy:
         self.model = model
         self.normalizer = normalizer
 
-    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+    def predict(
+        self,
+        observation: Any,
+        state: Any = None,
+        episode_start: Any = None,
+        deterministic: bool = True,
+    ) -> Any:
         """SB3's ``predict`` on the normalised observation."""
         normalized = self.normalizer.normalize_obs(observation)
         return self.model.predict(normalized, state, episode_start, deterministic)
@@ -89,20 +174,82 @@ class NormalizedPolicy:
         """Nothing to forget: the model is stateless."""
 
 
-def _load_sb3(path: Path):
-    import pickle
+class _SB3Policy:
+    """An SB3 model with ``reset`` (the ``Policy`` protocol)."""
 
-    from stable_baselines3 import PPO, SAC  # imported here: SB3 pulls in torch
+    def __init__(self, model: Any) -> None:
+        self.model = model
 
+    def predict(
+        self,
+        observation: Any,
+        state: Any = None,
+        episode_start: Any = None,
+        deterministic: bool = True,
+    ) -> Any:
+        """SB3's ``predict``."""
+        return self.model.predict(observation, state, episode_start, deterministic)
+
+    def reset(self) -> None:
+        """Nothing to forget: the model is stateless."""
+
+
+def sb3_algorithm(path: Path) -> str:
+    """``"PPO"`` or ``"SAC"``: which algorithm saved the SB3 model ``path``."""
     with zipfile.ZipFile(path) as archive:
         data = archive.read("data").decode() if "data" in archive.namelist() else ""
     if not data:
         raise ValueError(f"{path} is not a stable-baselines3 model (no 'data' entry)")
-    algo = SAC if '"log_ent_coef"' in data else PPO
-    model = algo.load(path, device="cpu")
+    policy_class = json.loads(data).get("policy_class", {})
+    module = policy_class.get("__module__", "") if isinstance(policy_class, dict) else ""
+    return (
+        "SAC" if module.startswith("stable_baselines3.sac") or '"log_ent_coef"' in data else "PPO"
+    )
+
+
+def _recorded_env_kwargs(path: Path) -> dict[str, Any] | None:
+    """The ``env_kwargs`` of the run's ``config.yml`` beside the model, if there is one."""
+    config = path.with_name("config.yml")
+    if not config.is_file():
+        return None
+    import yaml
+
+    table = yaml.safe_load(config.read_text()) or {}
+    if not isinstance(table, dict) or len(table) != 1:
+        return None
+    (entry,) = table.values()
+    return dict((entry or {}).get("env_kwargs") or {})
+
+
+def _load_sb3(path: Path, env: gym.Env[Any, Any] | None = None, name: str = "") -> Policy:
+    import pickle
+
+    try:
+        from stable_baselines3 import PPO, SAC  # imported here: SB3 pulls in torch
+    except ModuleNotFoundError:
+        raise SystemExit(
+            f"loading the SB3 model {path} needs the [train] extra: pip install 'bubblerob[train]' "
+            "(or export it with python -m policies.export_onnx and load the .onnx)"
+        ) from None
+
+    model: Any = (SAC if sb3_algorithm(path) == "SAC" else PPO).load(path, device="cpu")
+    if env is not None:
+        kwargs = _recorded_env_kwargs(path)
+        if kwargs is not None:
+            trained_env = gym.make("BubbleRob-v0", **kwargs)
+            check_env(name or str(path), env_signature(trained_env), env, kwargs)
+            trained_env.close()
+        _check_observation_keys(name or str(path), list(model.observation_space.spaces), env)
+        env_spaces: dict[str, Any] = dict(getattr(env.observation_space, "spaces", {}))
+        for key, space in model.observation_space.spaces.items():
+            if env_spaces[key].shape != space.shape:
+                raise PolicyEnvMismatchError(
+                    f"policy {name or path!s} takes {key} of shape {space.shape}, "
+                    f"but this env gives {env_spaces[key].shape}"
+                )
     stats = path.with_name(path.stem + NORMALIZATION_SUFFIX)
     if not stats.is_file():
-        return model
+        return _SB3Policy(model)
     with stats.open("rb") as handle:
         normalizer = pickle.load(handle)  # noqa: S301 - our own training output
     normalizer.training = False

@@ -1,0 +1,228 @@
+"""Export a trained SB3 policy, with its VecNormalize statistics, to ONNX (needs the [train] extra).
+
+``python -m policies.export_onnx`` re-exports the shipped policy: it reads
+``policies/trained/ppo_bubblerob_v0.zip`` and ``ppo_bubblerob_v0_vecnormalize.pkl`` beside it, and
+writes ``policies/trained/ppo_bubblerob_v0.onnx``, which ``load_policy("ppo", env)`` runs with
+onnxruntime, without torch. Run it again whenever the shipped model is retrained. Any other
+model: ``python -m policies.export_onnx runs/quick/best_model.zip`` (writes
+``runs/quick/best_model.onnx``).
+
+The graph follows SB3's ONNX export recipe (a ``torch.nn.Module`` around the policy, exported with
+``torch.onnx.export``) and adds what ``predict(obs, deterministic=True)`` does around it:
+
+- one input per observation key, named by the key, each ``(batch, *shape)`` float32 (uint8 for an
+  image); SB3's ``CombinedExtractor`` concatenates them in the observation space's (sorted) key
+  order, and the graph does the same because it runs the policy's own feature extractor;
+- VecNormalize's observation normalisation, in float64 as NumPy does it:
+  ``clip((obs - mean) / sqrt(var + epsilon), -clip_obs, clip_obs)``, then float32;
+- the deterministic action (the Gaussian's mean for PPO, SAC's squashed mean), clipped to the
+  action space (PPO) or rescaled to it (SAC) as ``predict`` does;
+- one output, ``action`` ``(batch, action_dim)`` float32.
+
+The model's metadata (``bubblerob`` key, JSON) records the env it was trained for (env id, env
+kwargs, action type, laser rays, camera), the observation keys and the source files' SHA-256, so
+``load_policy`` can refuse a mismatched env and a test can tell a stale export.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import pickle
+import sys
+import warnings
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from policies.onnx_policy import METADATA_KEY
+
+__all__ = ["METADATA_KEY", "export_onnx", "main"]
+
+TRAINED_DIR = Path(__file__).resolve().parent / "trained"
+SHIPPED_MODEL = TRAINED_DIR / "ppo_bubblerob_v0.zip"
+NORMALIZATION_SUFFIX = "_vecnormalize.pkl"
+OPSET = 17
+
+
+def sha256(path: Path) -> str:
+    """Hex SHA-256 of a file."""
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _recorded_env(model_path: Path) -> tuple[str, dict[str, Any]]:
+    """Env id and kwargs from the run's ``config.yml`` beside the model (default env if none)."""
+    config = model_path.with_name("config.yml")
+    if not config.is_file():
+        return "BubbleRob-v0", {}
+    import yaml
+
+    table = yaml.safe_load(config.read_text()) or {}
+    env_id = next(iter(table), "BubbleRob-v0")
+    return env_id, dict((table.get(env_id) or {}).get("env_kwargs") or {})
+
+
+def _load_model(path: Path) -> Any:
+    from stable_baselines3 import PPO, SAC
+
+    from policies.loading import sb3_algorithm
+
+    return (SAC if sb3_algorithm(path) == "SAC" else PPO).load(path, device="cpu")
+
+
+def _build_module(model: Any, normalizer: Any) -> tuple[Any, list[str]]:
+    """The torch module (raw observations in key order -> action) and the key order."""
+    import torch
+    from gymnasium import spaces
+    from stable_baselines3.common.distributions import DiagGaussianDistribution
+    from stable_baselines3.common.policies import ActorCriticPolicy
+
+    policy = model.policy
+    policy.set_training_mode(False)
+    obs_space = model.observation_space
+    if not isinstance(obs_space, spaces.Dict):
+        raise ValueError("only Dict observation spaces are supported (BubbleRob's)")
+    keys = list(obs_space.spaces)  # gymnasium sorts a Dict's keys; CombinedExtractor keeps them
+    action_space = model.action_space
+    low = torch.as_tensor(action_space.low, dtype=torch.float32)
+    high = torch.as_tensor(action_space.high, dtype=torch.float32)
+    stats: dict[str, tuple[Any, Any, float]] = {}
+    if normalizer is not None and normalizer.norm_obs:
+        for key in normalizer.norm_obs_keys:
+            rms = normalizer.obs_rms[key]
+            mean = torch.as_tensor(np.asarray(rms.mean, dtype=np.float64))
+            var = np.asarray(rms.var, dtype=np.float64)
+            std = torch.as_tensor(np.sqrt(var + normalizer.epsilon))
+            stats[key] = (mean, std, float(normalizer.clip_obs))
+    is_actor_critic = isinstance(policy, ActorCriticPolicy)
+    is_gaussian = (
+        is_actor_critic
+        and type(policy.action_dist) is DiagGaussianDistribution
+        and not policy.squash_output
+    )
+
+    class OnnxablePolicy(torch.nn.Module):
+        def __init__(self) -> None:
+            super().__init__()
+            self.policy = policy
+
+        def forward(self, *observations: Any) -> Any:
+            obs = {}
+            for key, value in zip(keys, observations, strict=True):
+                if key in stats:
+                    mean, std, clip = stats[key]
+                    value = ((value.double() - mean) / std).clamp(-clip, clip).float()
+                obs[key] = value
+            if is_gaussian:
+                # The Gaussian's mean, as policy(obs, deterministic=True) computes it, without
+                # building the distribution (whose argument checks the tracer would freeze).
+                features = self.policy.extract_features(obs, self.policy.pi_features_extractor)
+                latent = self.policy.mlp_extractor.forward_actor(features)
+                actions = self.policy.action_net(latent)
+                return torch.maximum(torch.minimum(actions, high), low)
+            if is_actor_critic:
+                # SB3's recipe: policy(obs, deterministic=True) gives the distribution's mode.
+                actions, _, _ = self.policy(obs, deterministic=True)
+                if self.policy.squash_output:
+                    return low + 0.5 * (actions + 1.0) * (high - low)
+                return torch.maximum(torch.minimum(actions, high), low)
+            if self.policy.actor.use_sde:
+                actions = self.policy.actor(obs, deterministic=True)
+            else:  # SAC's deterministic action, the squashed mean, as actor(obs) computes it
+                mean, _, _ = self.policy.actor.get_action_dist_params(obs)
+                actions = torch.tanh(mean)
+            return low + 0.5 * (actions + 1.0) * (high - low)
+
+    return OnnxablePolicy().eval(), keys
+
+
+def export_onnx(model_path: Path, out: Path | None = None) -> Path:
+    """Export ``model_path`` (and ``<stem>_vecnormalize.pkl`` beside it, if any) to ONNX."""
+    import onnx
+    import torch
+
+    import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
+    from policies.loading import env_signature
+
+    model_path = Path(model_path)
+    out = model_path.with_suffix(".onnx") if out is None else Path(out)
+    model = _load_model(model_path)
+    stats_path = model_path.with_name(model_path.stem + NORMALIZATION_SUFFIX)
+    normalizer = None
+    if stats_path.is_file():
+        with stats_path.open("rb") as handle:
+            normalizer = pickle.load(handle)  # noqa: S301 - our own training output
+    module, keys = _build_module(model, normalizer)
+    obs_space = model.observation_space
+    dummy = tuple(
+        torch.as_tensor(np.stack([obs_space[key].sample()] * 2)) for key in keys
+    )  # a batch of 2, so the batch axis stays symbolic
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with torch.no_grad(), warnings.catch_warnings():
+        # The TorchScript exporter needs no onnxscript; the new one would give the same graph.
+        warnings.simplefilter("ignore", DeprecationWarning)
+        torch.onnx.export(
+            module,
+            dummy,
+            str(out),
+            input_names=keys,
+            output_names=["action"],
+            dynamic_axes={**{key: {0: "batch"} for key in keys}, "action": {0: "batch"}},
+            opset_version=OPSET,
+            dynamo=False,
+        )
+    import gymnasium as gym
+
+    env_id, env_kwargs = _recorded_env(model_path)
+    env = gym.make(env_id, **env_kwargs)
+    info = {
+        "algo": type(model).__name__,
+        "env_id": env_id,
+        "env_kwargs": env_kwargs,
+        "env": env_signature(env),
+        "observation_keys": keys,
+        "observation_shapes": {key: list(obs_space[key].shape) for key in keys},
+        "observation_dtypes": {key: str(obs_space[key].dtype) for key in keys},
+        "source": {model_path.name: sha256(model_path)}
+        | ({stats_path.name: sha256(stats_path)} if normalizer is not None else {}),
+    }
+    env.close()
+    graph = onnx.load(str(out))
+    graph.producer_name = "bubblerob policies.export_onnx"
+    graph.producer_version = ""
+    del graph.metadata_props[:]
+    entry = graph.metadata_props.add()
+    entry.key, entry.value = METADATA_KEY, json.dumps(info, sort_keys=True)
+    onnx.checker.check_model(graph)
+    onnx.save(graph, str(out))
+    return out
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``python -m policies.export_onnx``."""
+    from bubblerob_env.cli import HelpFormatter
+
+    parser = argparse.ArgumentParser(
+        prog="python -m policies.export_onnx",
+        description="Export an SB3 model (+ its VecNormalize statistics) to ONNX for "
+        "onnxruntime; by default the shipped PPO policy.",
+        formatter_class=HelpFormatter,
+    )
+    parser.add_argument("model", type=Path, nargs="?", default=SHIPPED_MODEL, help="SB3 .zip")
+    parser.add_argument("--out", type=Path, help="ONNX file (default: the model's path, .onnx)")
+    args = parser.parse_args(argv)
+    from bubblerob_env.extras import require_extra
+
+    require_extra("train", "python -m policies.export_onnx")
+    if not args.model.is_file():
+        parser.error(f"model {args.model} does not exist")
+    out = export_onnx(args.model, args.out)
+    print(f"wrote {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
