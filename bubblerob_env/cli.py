@@ -1,7 +1,7 @@
 """The ``bubblerob`` command: one entry point, subcommands registered by the optional parts.
 
-The env itself needs none of them; each subcommand's module is imported only when its extra is
-installed, so ``bubblerob --help`` says which subcommands need which extra.
+The env itself needs none of them. Every subcommand is always listed; one whose extra is not
+installed exits at start with one line naming the extra to install (no traceback).
 """
 
 from __future__ import annotations
@@ -10,34 +10,107 @@ import argparse
 import importlib
 import sys
 from collections.abc import Sequence
+from importlib import metadata
+from typing import Any
 
-__all__ = ["main"]
+from bubblerob_env.extras import require_extra
 
-# Modules that define ``add_subcommands(subparsers)``, with the extra each one needs.
-_SUBCOMMAND_MODULES = (
-    ("bubblerob_env.ros.cli", "ros"),
-    ("policies.cli", "train"),
+__all__ = ["HelpFormatter", "build_parser", "main"]
+
+# Modules that define ``add_subcommands(subparsers)``: the extra their subcommands need, and the
+# subcommands they add (listed here so that they show, and explain themselves, without the extra).
+_SUBCOMMAND_MODULES: tuple[tuple[str, str, tuple[str, ...]], ...] = (
+    ("bubblerob_env.ros.cli", "ros", ("record", "info", "replay", "node")),
+    ("policies.cli", "demo", ("evaluate", "demo")),
+    ("train.cli", "train", ("train",)),
 )
+_OWN_PACKAGES = ("bubblerob_env", "policies", "train")
+
+EXAMPLES = {
+    "demo": "bubblerob demo --episodes 3 --out demo_output",
+    "evaluate": "bubblerob evaluate --policy laser --policy ppo --episodes 20 "
+    "--video ppo.mp4 --video-policy ppo",
+    "train": "bubblerob train --algo ppo --timesteps 2048 --eval-freq 1024 --set n_steps=128 "
+    "--out runs/quick",
+    "record": "bubblerob record --policy laser --episodes 2 --seed 0 --format mcap --out bags",
+    "info": "bubblerob info bags/bubblerob_laser_seed0",
+    "replay": "bubblerob replay bags/bubblerob_laser_seed0",
+    "node": "bubblerob node --rate-factor 1 --namespace robot2",
+}
+
+
+class HelpFormatter(argparse.HelpFormatter):
+    """``--help`` names each option's default and keeps indented example lines as they are."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        default = action.default
+        if (
+            "default" in text
+            or default in (None, False, argparse.SUPPRESS)
+            or action.option_strings == []
+            or isinstance(default, list) and not default
+        ):
+            return action.help
+        return f"{text} (default: %(default)s)"
+
+    def _fill_text(self, text: str, width: int, indent: str) -> str:
+        paragraphs = []
+        for line in text.splitlines():
+            if line.startswith(" "):
+                paragraphs.append(indent + line)  # an example command: not re-wrapped
+            else:
+                paragraphs.append(super()._fill_text(line, width, indent))
+        return "\n".join(paragraphs)
+
+
+def _version() -> str:
+    try:
+        return metadata.version("bubblerob")
+    except metadata.PackageNotFoundError:
+        from bubblerob_env import __version__
+
+        return __version__
+
+
+def _missing_extra_stub(subparsers: Any, name: str, extra: str) -> None:
+    parser = subparsers.add_parser(
+        name, help=f"(needs the [{extra}] extra)", add_help=False, prefix_chars="\0"
+    )
+    parser.add_argument("rest", nargs=argparse.REMAINDER)
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The argument parser with every available subcommand."""
+    """The argument parser with every subcommand."""
     parser = argparse.ArgumentParser(
-        prog="bubblerob", description="BubbleRob in MuJoCo: record, replay, evaluate, demo."
+        prog="bubblerob",
+        description="BubbleRob in MuJoCo: demo, evaluate, train, record, replay, live ROS node.",
+        epilog="Run 'bubblerob COMMAND --help' for a command's options, defaults and an example.",
+        formatter_class=HelpFormatter,
     )
+    parser.add_argument("--version", action="version", version=f"bubblerob {_version()}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    missing = []
-    for module_name, extra in _SUBCOMMAND_MODULES:
+    for module_name, extra, names in _SUBCOMMAND_MODULES:
+        before = set(subparsers.choices)
         try:
             module = importlib.import_module(module_name)
         except ModuleNotFoundError as error:
-            if error.name is not None and module_name.startswith(error.name):
-                continue  # that part of the project does not exist (yet)
-            missing.append(f"{module_name} needs the [{extra}] extra ({error.name} is missing)")
+            if error.name is None or error.name.split(".")[0] in _OWN_PACKAGES:
+                raise  # a bug in this package, not a missing extra
+            for name in names:
+                _missing_extra_stub(subparsers, name, extra)
             continue
         module.add_subcommands(subparsers)
-    if missing:
-        parser.epilog = "unavailable: " + "; ".join(missing)
+        for name in set(subparsers.choices) - before:
+            sub = subparsers.choices[name]
+            sub.formatter_class = HelpFormatter
+            if sub.get_default("extra") is None:
+                sub.set_defaults(extra=extra)
+            if sub.epilog is None and name in EXAMPLES:
+                sub.epilog = f"example:\n  {EXAMPLES[name]}"
+    for sub in subparsers.choices.values():
+        if sub.get_default("extra") is None:
+            sub.set_defaults(extra=None)
     return parser
 
 
@@ -45,7 +118,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run ``bubblerob`` with ``argv`` (default: the process arguments)."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    result = args.handler(args)
+    if args.extra is not None:
+        require_extra(args.extra, f"bubblerob {args.command}")
+    handler = getattr(args, "handler", None)
+    if handler is None:  # a stub: the module that defines the command could not be imported
+        extra = next(e for _, e, names in _SUBCOMMAND_MODULES if args.command in names)
+        require_extra(extra, f"bubblerob {args.command}")
+        raise SystemExit(
+            f"bubblerob {args.command} needs the [{extra}] extra: pip install 'bubblerob[{extra}]'"
+        )
+    result = handler(args)
     return int(result or 0)
 
 

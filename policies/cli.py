@@ -25,20 +25,30 @@ def _env_kwargs(text: str) -> dict[str, Any]:
 def add_subcommands(subparsers: Any) -> None:
     """Register ``evaluate``."""
     parser = subparsers.add_parser(
-        "evaluate", help="evaluate policies on held-out seeds and print one table"
+        "evaluate",
+        help="evaluate policies on held-out seeds and print one table",
+        description="Run each policy for the same held-out episodes (seeds SEED, SEED+1, ...) "
+        "and print one table; optionally record one episode as a video.",
     )
     parser.add_argument(
         "--policy",
         action="append",
         required=True,
-        help="reactive, laser, random or a path to an SB3 .zip; repeat to compare",
+        help="reactive, laser, random, ppo, or a path to an exported .onnx or an SB3 .zip; "
+        "repeat to compare",
     )
-    parser.add_argument("--episodes", type=int, default=100)
+    parser.add_argument("--episodes", type=int, default=100, help="episodes per policy")
     parser.add_argument("--seed", type=int, default=DEFAULT_EVAL_SEED, help="first episode seed")
     parser.add_argument("--env", default="BubbleRob-v0", help="env id")
-    parser.add_argument("--env-kwargs", type=_env_kwargs, default={}, help="JSON object")
+    parser.add_argument("--env-kwargs", type=_env_kwargs, default={}, help="gym.make kwargs, JSON")
     parser.add_argument("--markdown", action="store_true", help="print a Markdown table")
-    parser.add_argument("--video", type=Path, help="also write the first policy's first episode")
+    parser.add_argument(
+        "--video", type=Path, help="also write the first episode (seed SEED) as .mp4 or .gif"
+    )
+    parser.add_argument(
+        "--video-policy",
+        help="the policy --video records (default: the first --policy)",
+    )
     parser.set_defaults(handler=_run_evaluate)
 
     demo = subparsers.add_parser(
@@ -47,8 +57,8 @@ def add_subcommands(subparsers: Any) -> None:
         description="Run a policy (default: the shipped PPO) for a few episodes, print its "
         "evaluation table, record the episodes as an MCAP bag and write a video.",
     )
-    demo.add_argument("--policy", default="ppo", help="ppo (default), laser, reactive or a .zip")
-    demo.add_argument("--episodes", type=int, default=3)
+    demo.add_argument("--policy", default="ppo", help="ppo, laser, reactive, an .onnx or a .zip")
+    demo.add_argument("--episodes", type=int, default=3, help="episodes to drive and record")
     demo.add_argument("--seed", type=int, default=DEFAULT_EVAL_SEED, help="first episode seed")
     demo.add_argument("--out", type=Path, default=Path("demo_output"), help="output folder")
     demo.add_argument("--no-video", action="store_true", help="skip the video")
@@ -64,12 +74,18 @@ def _run_demo(args: argparse.Namespace) -> int:
 def _run_evaluate(args: argparse.Namespace) -> int:
     if args.episodes < 1:
         raise SystemExit(f"--episodes must be >= 1, got {args.episodes}")
+    video_policy = args.video_policy or args.policy[0]
+    if args.video is not None:
+        if args.video.suffix.lower() not in (".mp4", ".gif"):
+            raise SystemExit(f"--video must end in .mp4 or .gif, got {args.video}")
+        if args.video_policy is not None and args.video_policy not in args.policy:
+            raise SystemExit(f"--video-policy {args.video_policy} is not one of --policy")
     results = [
         evaluate(name, args.episodes, args.seed, args.env, args.env_kwargs, progress=True)
         for name in args.policy
     ]
     print(format_table(results, markdown=args.markdown))
     if args.video is not None:
-        frames = record_video(args.policy[0], args.video, args.seed, args.env, args.env_kwargs)
-        print(f"wrote {args.video} ({frames} frames)")
+        frames = record_video(video_policy, args.video, args.seed, args.env, args.env_kwargs)
+        print(f"wrote {args.video}: policy {video_policy}, seed {args.seed}, {frames} frames")
     return 0

@@ -8,15 +8,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import gymnasium as gym
-import numpy as np
 
 from policies.evaluation import (
     DEFAULT_EVAL_SEED,
     EvalResult,
+    VideoWriter,
     format_table,
     run_episode,
     summarize,
-    write_video,
 )
 from policies.loading import load_policy
 
@@ -60,23 +59,21 @@ def run_demo(
         overwrite=True,
         metadata={"policy": str(policy_name), "command": command},
     )
-    frames: list[np.ndarray] = []
+    video_path = out / f"bubblerob_demo_{Path(policy_name).stem}.mp4" if video else None
     stats = []
     from tqdm import tqdm
 
     bar = tqdm(total=episodes, desc=f"demo {policy_name}", unit="episode", disable=not progress)
     with recorder, bar:
         for index in range(episodes):
-            episode = run_episode(
-                recorder, policy, seed + index, frames if video and index == 0 else None
-            )
+            if index == 0 and video_path is not None:  # frames go to the encoder as they come
+                with VideoWriter(video_path, env.metadata["render_fps"]) as writer:
+                    episode = run_episode(recorder, policy, seed, writer)
+            else:
+                episode = run_episode(recorder, policy, seed + index)
             stats.append(episode)
             bar.set_postfix(steps=episode.length, collided=episode.collided)
             bar.update()
-    video_path = None
-    if video:
-        video_path = out / f"bubblerob_demo_{Path(policy_name).stem}.mp4"
-        write_video(video_path, frames, env.metadata["render_fps"])
     env.close()
     return DemoResult(summarize(str(policy_name), stats), recorder.bag_paths[0], video_path)
 

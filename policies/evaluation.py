@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import gymnasium as gym
 import numpy as np
@@ -16,6 +16,7 @@ __all__ = [
     "DEFAULT_EVAL_SEED",
     "EpisodeStats",
     "EvalResult",
+    "VideoWriter",
     "evaluate",
     "format_table",
     "record_video",
@@ -53,8 +54,15 @@ class EpisodeStats:
     speed_fractions: tuple[float, ...]
 
 
+class FrameSink(Protocol):
+    """Where rendered frames go: a list, or a :class:`VideoWriter` that encodes as they come."""
+
+    def append(self, frame: np.ndarray, /) -> None:
+        """Take one frame."""
+
+
 def run_episode(
-    env: gym.Env[Any, Any], policy: Any, seed: int, frames: list[np.ndarray] | None = None
+    env: gym.Env[Any, Any], policy: Any, seed: int, frames: FrameSink | None = None
 ) -> EpisodeStats:
     """Run one episode from ``seed`` with deterministic actions; append rendered frames if asked.
 
@@ -160,34 +168,87 @@ def record_video(
     max_steps: int | None = None,
     size: int = 360,
 ) -> int:
-    """Write one episode from the overhead view (laser drawn) as MP4 or GIF; returns its frames."""
-    if path.suffix.lower() not in (".mp4", ".gif"):
-        raise ValueError(f"video path must end in .mp4 or .gif, got {path}")
+    """Write one episode from the overhead view (laser drawn) as MP4 or GIF; returns its frames.
+
+    Frames go to the encoder as they are rendered: memory stays flat however long the episode.
+    """
+    _check_video_path(path)
     kwargs = dict(env_kwargs or {}, render_mode="rgb_array", render_width=size, render_height=size)
+    if max_steps is not None:
+        kwargs["max_episode_steps"] = max_steps
     env = gym.make(env_id, **kwargs)
-    frames: list[np.ndarray] = []
-    run_episode(env, load_policy(policy_name, env), seed, frames)
+    policy = load_policy(policy_name, env)
+    with VideoWriter(path, env.metadata["render_fps"]) as writer:
+        run_episode(env, policy, seed, writer)
     env.close()
-    write_video(path, frames, env.metadata["render_fps"])
-    return len(frames)
+    return writer.frames
 
 
-def write_video(path: Path, frames: Sequence[np.ndarray], fps: int) -> None:
-    """Write frames as an MP4 (H.264) or a looping GIF, by the path's suffix."""
-    import imageio.v3 as iio
-
+def _check_video_path(path: Path) -> None:
     if path.suffix.lower() not in (".mp4", ".gif"):
         raise ValueError(f"video path must end in .mp4 or .gif, got {path}")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    if path.suffix.lower() == ".gif":
-        iio.imwrite(path, np.stack(frames), duration=1000 / fps, loop=0)
-    else:
-        _write_mp4(path, frames, fps)
 
 
-def _write_mp4(path: Path, frames: Sequence[np.ndarray], fps: int) -> None:
-    import imageio.v2 as imageio
+# GIF in one pass: each frame gets its own 256-colour palette, so ffmpeg never holds the clip.
+_GIF_FILTER = "split[a][b];[a]palettegen=stats_mode=single[p];[b][p]paletteuse=new=1"
 
-    with imageio.get_writer(path, fps=fps, codec="libx264", macro_block_size=8) as writer:
+
+class VideoWriter:
+    """Streams RGB frames to ffmpeg as an MP4 (H.264) or a looping GIF, by the path's suffix.
+
+    ``append`` sends each frame to the encoder at once; nothing is kept in memory. The size is
+    taken from the first frame.
+    """
+
+    def __init__(self, path: Path, fps: float) -> None:
+        _check_video_path(path)
+        self.path = Path(path)
+        self.fps = fps
+        self.frames = 0
+        self._encoder: Any = None
+
+    def append(self, frame: np.ndarray, /) -> None:
+        """Encode one frame (H x W x 3 uint8)."""
+        frame = np.ascontiguousarray(frame[..., :3], dtype=np.uint8)
+        if self._encoder is None:
+            self._encoder = self._open(frame.shape[1], frame.shape[0])
+        self._encoder.send(frame)
+        self.frames += 1
+
+    def _open(self, width: int, height: int) -> Any:
+        import imageio_ffmpeg
+
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        if self.path.suffix.lower() == ".gif":
+            options: dict[str, Any] = dict(
+                codec="gif",
+                pix_fmt_out="pal8",
+                macro_block_size=1,
+                output_params=["-filter_complex", _GIF_FILTER, "-loop", "0"],
+            )
+        else:
+            options = dict(codec="libx264", pix_fmt_out="yuv420p", macro_block_size=8)
+        encoder = imageio_ffmpeg.write_frames(
+            str(self.path), (width, height), fps=self.fps, **options
+        )
+        encoder.send(None)  # start ffmpeg
+        return encoder
+
+    def close(self) -> None:
+        """Finish the file."""
+        if self._encoder is not None:
+            self._encoder.close()
+            self._encoder = None
+
+    def __enter__(self) -> VideoWriter:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+
+def write_video(path: Path, frames: Iterable[np.ndarray], fps: float) -> None:
+    """Write frames as an MP4 (H.264) or a looping GIF, by the path's suffix."""
+    with VideoWriter(path, fps) as writer:
         for frame in frames:
-            writer.append_data(frame)
+            writer.append(frame)

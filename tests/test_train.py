@@ -55,6 +55,7 @@ def test_training_script_runs_and_saves_a_reproducible_run(tmp_path, algo):
         "command.txt",
         "versions.json",
         "evaluations.npz",
+        "settings.json",
     ):
         assert (out / name).is_file(), name
     assert list((out / "tb").iterdir()), "no TensorBoard logs"
@@ -123,3 +124,18 @@ def test_best_model_is_the_safest_then_the_highest_return(tmp_path):
         saved.append(best.exists())
         best.unlink(missing_ok=True)
     assert saved == [True, False, True, False, True]
+
+
+def test_hyperparameter_files_hold_only_rl_zoo3_keys():
+    # rl_zoo3 passes unknown keys to the algorithm, which rejects them: the project's own
+    # settings are command-line options (--vec-env, --torch-threads).
+    for algo in ("ppo", "sac"):
+        params = load_hyperparams(algo, "BubbleRob-v0")
+        assert not {"vec_env", "torch_threads"} & set(params), algo
+
+
+def test_project_settings_in_the_yaml_are_refused_with_the_option_to_use(tmp_path):
+    from train.train import train
+
+    with pytest.raises(ValueError, match=r"'vec_env' is not an rl_zoo3 hyperparameter.*--vec-env"):
+        train("ppo", "BubbleRob-v0", tmp_path, overrides={"vec_env": "dummy"})

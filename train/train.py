@@ -1,9 +1,15 @@
 """Train an SB3 agent on a BubbleRob env with hyperparameters from ``train/hyperparams/*.yml``.
 
+The YAML files hold only rl-baselines3-zoo hyperparameters, so that rl_zoo3 loads them as they are
+(``python -m rl_zoo3.train --algo ppo --env BubbleRob-v0 --gym-packages bubblerob_env -conf
+train/hyperparams/ppo.yml``); this project's own settings, how the envs are stepped
+(``--vec-env``) and torch's thread count (``--torch-threads``), are command-line options.
+
 A run writes into its output folder: ``config.yml`` (the hyperparameters used, after command-line
-overrides), ``command.txt`` (the command that reproduces it), ``versions.json`` (package
-versions), TensorBoard logs, checkpoints, ``evaluations.npz`` and ``best_model.zip`` from
-periodic evaluation on held-out seeds, and the final ``model.zip``.
+overrides), ``settings.json`` (the project-only settings), ``command.txt`` (the command that
+reproduces it), ``versions.json`` (package versions), TensorBoard logs, checkpoints,
+``evaluations.npz`` and ``best_model.zip`` from periodic evaluation on held-out seeds, and the final
+``model.zip``.
 """
 
 from __future__ import annotations
@@ -19,7 +25,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
 
@@ -37,25 +42,34 @@ HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
 NORMALIZATION_SUFFIX = "_vecnormalize.pkl"
 """``<model stem><suffix>`` beside a model holds its VecNormalize statistics (``load_policy``)."""
 EVAL_SEED_OFFSET = 1_000_000  # evaluation episodes use seeds training never sees
-_NOT_ALGO_KWARGS = (
-    "normalize",
-    "n_timesteps",
-    "n_envs",
-    "env_kwargs",
-    "policy",
-    "vec_env",
-    "torch_threads",
-)
+_NOT_ALGO_KWARGS = ("normalize", "n_timesteps", "n_envs", "env_kwargs", "policy")
+PROJECT_SETTINGS = {"vec_env": "--vec-env", "torch_threads": "--torch-threads"}
+"""Settings of this project's trainer that rl_zoo3 does not know: command-line options, not YAML."""
+VEC_ENVS = ("dummy", "subproc")
+DEFAULT_VEC_ENV = "dummy"
+"""Step the envs in the training process: on 2 cores, faster than subprocesses for this env."""
+DEFAULT_TORCH_THREADS = 1
+"""A 64x64 MLP gains nothing from more threads, and they steal the envs' CPU."""
 
 
 def load_hyperparams(algo: str, env_id: str) -> dict[str, Any]:
     """The hyperparameters of ``algo`` for ``env_id`` from ``hyperparams/<algo>.yml``."""
     if algo not in ALGOS:
         raise ValueError(f"unknown algo {algo!r}; choose one of {list(ALGOS)}")
+    import yaml
+
     table = yaml.safe_load((HYPERPARAMS_DIR / f"{algo}.yml").read_text())
     if env_id not in table:
         raise ValueError(f"no {algo} hyperparameters for {env_id!r}; known: {sorted(table)}")
     return dict(table[env_id])
+
+
+def _reject_project_settings(config: dict[str, Any]) -> None:
+    for key, option in PROJECT_SETTINGS.items():
+        if key in config:
+            raise ValueError(
+                f"{key!r} is not an rl_zoo3 hyperparameter: use the command-line option {option}"
+            )
 
 
 def _schedules(config: dict[str, Any]) -> dict[str, Any]:
@@ -106,9 +120,7 @@ def keep_best_model(out: Path) -> Any:
         def _on_step(self) -> bool:
             evaluation = self.parent
             assert isinstance(evaluation, EvalCallback)
-            score = evaluation_score(
-                evaluation.evaluations_successes, evaluation.last_mean_reward
-            )
+            score = evaluation_score(evaluation.evaluations_successes, evaluation.last_mean_reward)
             if score > self.best:
                 self.best = score
                 self.model.save(out / "best_model")
@@ -132,19 +144,26 @@ def train(
     progress_bar: bool = True,
     command: str | None = None,
     overrides: dict[str, Any] | None = None,
+    vec_env: str = DEFAULT_VEC_ENV,
+    torch_threads: int = DEFAULT_TORCH_THREADS,
 ) -> Path:
     """Train and save; returns the path of the final model.
 
     ``overrides`` replace hyperparameters from the YAML (``--set key=value`` on the command line).
+    ``vec_env`` (``dummy`` or ``subproc``) says how the ``n_envs`` training envs are stepped.
     """
     import torch
+    import yaml
     from stable_baselines3 import PPO, SAC
     from stable_baselines3.common.callbacks import CheckpointCallback, EvalCallback
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
 
+    if vec_env not in VEC_ENVS:
+        raise ValueError(f"vec_env must be one of {list(VEC_ENVS)}, got {vec_env!r}")
     config = load_hyperparams(algo, env_id)
     config.update(overrides or {})
+    _reject_project_settings(config)
     if timesteps is not None:
         config["n_timesteps"] = timesteps
     if n_envs is not None:
@@ -154,17 +173,15 @@ def train(
     (out / "config.yml").write_text(yaml.safe_dump({env_id: config}, sort_keys=False))
     (out / "command.txt").write_text((command or _default_command(algo, env_id, out)) + "\n")
     (out / "versions.json").write_text(json.dumps(_versions(), indent=2) + "\n")
+    settings = {"vec_env": vec_env, "torch_threads": torch_threads}
+    (out / "settings.json").write_text(json.dumps(settings, indent=2) + "\n")
 
     env_kwargs = config.get("env_kwargs") or {}
     count = int(config["n_envs"])
-    # SubprocVecEnv when K > 1 unless the YAML says "vec_env: dummy": with small, fast envs on a
-    # 2-core machine the inter-process round trips cost more than stepping the envs in-process.
-    vec_cls = (
-        SubprocVecEnv
-        if count > 1 and config.get("vec_env", "subproc") == "subproc"
-        else DummyVecEnv
-    )
-    torch.set_num_threads(int(config.get("torch_threads", torch.get_num_threads())))
+    # DummyVecEnv by default: with small, fast envs on a 2-core machine the inter-process round
+    # trips of SubprocVecEnv cost more than stepping the envs in-process.
+    vec_cls = SubprocVecEnv if count > 1 and vec_env == "subproc" else DummyVecEnv
+    torch.set_num_threads(int(torch_threads))
     envs = make_vec_env(
         env_id,
         n_envs=count,
@@ -226,20 +243,52 @@ def _default_command(algo: str, env_id: str, out: Path) -> str:
     return shlex.join(["python", "-m", "train", "--algo", algo, "--env", env_id, "--out", str(out)])
 
 
-def _override(text: str) -> tuple[str, Any]:
+def _override(text: str) -> tuple[str, str]:
     key, sep, value = text.partition("=")
     if not sep or not key:
         raise argparse.ArgumentTypeError(f"--set needs KEY=VALUE, got {text!r}")
-    return key, yaml.safe_load(value)
+    return key, value  # read as YAML once the [train] extra is known to be there
 
 
-def build_parser() -> argparse.ArgumentParser:
+DESCRIPTION = (
+    "Train an SB3 agent (PPO or SAC) on a BubbleRob env with hyperparameters from "
+    "train/hyperparams/<algo>.yml (rl-baselines3-zoo format)."
+)
+EXAMPLE = (
+    "python -m train --algo ppo --timesteps 2048 --eval-freq 1024 --set n_steps=128 "
+    "--out runs/quick"
+)
+
+
+def build_parser(prog: str = "python -m train") -> argparse.ArgumentParser:
     """Command-line arguments of ``python -m train``."""
-    parser = argparse.ArgumentParser(prog="python -m train", description=__doc__.split("\n")[0])
+    from bubblerob_env.cli import HelpFormatter
+
+    parser = argparse.ArgumentParser(
+        prog=prog,
+        description=DESCRIPTION,
+        epilog=f"example:\n  {EXAMPLE}",
+        formatter_class=HelpFormatter,
+    )
+    add_arguments(parser)
+    return parser
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options of ``python -m train`` and ``bubblerob train``."""
     parser.add_argument("--algo", choices=ALGOS, default="ppo")
     parser.add_argument("--env", default="BubbleRob-v0", help="env id (default BubbleRob-v0)")
     parser.add_argument("--timesteps", type=int, help="override n_timesteps from the YAML")
-    parser.add_argument("--n-envs", type=int, help="override n_envs (SubprocVecEnv when > 1)")
+    parser.add_argument("--n-envs", type=int, help="override n_envs from the YAML")
+    parser.add_argument(
+        "--vec-env",
+        choices=VEC_ENVS,
+        default=DEFAULT_VEC_ENV,
+        help="step the envs in this process (dummy) or one subprocess each (subproc)",
+    )
+    parser.add_argument(
+        "--torch-threads", type=int, default=DEFAULT_TORCH_THREADS, help="torch's CPU threads"
+    )
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--eval-freq", type=int, default=50_000, help="env steps between evals")
     parser.add_argument("--eval-episodes", type=int, default=10)
@@ -253,14 +302,23 @@ def build_parser() -> argparse.ArgumentParser:
         help="override a hyperparameter (YAML value), e.g. --set n_steps=512",
     )
     parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
-    return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``python -m train``."""
     args = build_parser().parse_args(argv)
-    out = args.out or Path("runs") / f"{args.algo}-{args.env}-{args.seed}"
     command = shlex.join(["python", "-m", "train", *(sys.argv[1:] if argv is None else argv)])
+    return run(args, command, "python -m train")
+
+
+def run(args: argparse.Namespace, command: str, program: str) -> int:
+    """Train as the parsed command line of ``program`` says."""
+    from bubblerob_env.extras import require_extra
+
+    require_extra("train", program)
+    import yaml
+
+    out = args.out or Path("runs") / f"{args.algo}-{args.env}-{args.seed}"
     final = train(
         args.algo,
         args.env,
@@ -272,7 +330,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         eval_episodes=args.eval_episodes,
         progress_bar=not args.no_progress,
         command=command,
-        overrides=dict(args.set),
+        overrides={key: yaml.safe_load(value) for key, value in args.set},
+        vec_env=args.vec_env,
+        torch_threads=args.torch_threads,
     )
     print(f"saved {final} (best model: {out / 'best_model.zip'}, logs: {out / 'tb'})")
     return 0
