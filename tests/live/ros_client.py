@@ -1,7 +1,7 @@
 """External ROS 1 nodes for the live tests: run with Debian's /usr/bin/python3 (real rospy).
 
-Each subcommand prints one JSON line on stdout. ``seedloop`` is the seeds' ``rosBubbleRob2``:
-forward; for a while after ``sensorTrigger``, back up while turning.
+Each subcommand prints one JSON line on stdout. ``tutorialloop`` is the tutorial's
+``rosBubbleRob2``: forward; for a while after ``sensorTrigger``, back up while turning.
 """
 
 import argparse
@@ -221,7 +221,7 @@ def wait_recorder(node, timeout=20.0):
     raise SystemExit("rosbag record did not connect")
 
 
-def cmd_seedloop(args):
+def cmd_tutorialloop(args):
     """rosBubbleRob2 in sync mode: forward; after sensorTrigger back up turning for a while."""
     trig = Counter(ns(args, "sensorTrigger"), Bool)
     done = Counter(ns(args, "simulationStepDone"), Bool)
@@ -246,7 +246,7 @@ def cmd_seedloop(args):
             back_steps -= 1
         else:
             wanted = (args.forward, args.forward)
-        left.publish(Float32(wanted[0]))  # every step, as the seed's node does (and the
+        left.publish(Float32(wanted[0]))  # every step, as the tutorial's node does (and the
         right.publish(Float32(wanted[1]))  # node's watchdog wants)
         if wanted != command:
             command = wanted
@@ -281,7 +281,7 @@ def main():
     p.add_argument("--settle", type=float, default=0.5)
     p = sub.add_parser("states")
     p.add_argument("--pause-seconds", type=float, default=0.5)
-    p = sub.add_parser("seedloop")
+    p = sub.add_parser("tutorialloop")
     p.add_argument("--steps", type=int, default=600)
     p.add_argument("--forward", type=float, default=8.0)
     p.add_argument("--speed", type=float, default=10.0)

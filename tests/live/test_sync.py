@@ -1,4 +1,4 @@
-"""Sync mode: the seeds' rosBubbleRob2 loop, ``rosbag record`` vs the recorder, triggers, robots."""
+"""Sync mode: the tutorial's rosBubbleRob2 loop, ``rosbag record`` vs the recorder, triggers."""
 
 from __future__ import annotations
 
@@ -28,8 +28,8 @@ NODE_TOPICS = [
 
 
 @pytest.fixture(scope="module")
-def seed_node(start_node):
-    """The seed scene, stopped, in sync mode: the recording starts with the first frame."""
+def tutorial_node(start_node):
+    """The tutorial scene, stopped, in sync mode: the recording starts with the first frame."""
     return start_node("--sync", "--start", "stopped", "--seed", str(SEED))
 
 
@@ -56,7 +56,9 @@ def same(a: Any, b: Any, where: str) -> None:
         assert a == b, f"{where}: {a!r} != {b!r}"
 
 
-def test_seed_loop_drives_30_s_and_rosbag_record_matches_the_recorder(master, seed_node, tmp_path):
+def test_tutorial_loop_drives_30_s_and_rosbag_record_matches_the_recorder(
+    master, tutorial_node, tmp_path
+):
     bag = tmp_path / "live.bag"
     recorder = master.popen(
         ["/usr/bin/rosbag", "record", "--tcpnodelay", "-O", str(bag), *NODE_TOPICS],
@@ -64,7 +66,9 @@ def test_seed_loop_drives_30_s_and_rosbag_record_matches_the_recorder(master, se
         stderr=subprocess.PIPE,
     )
     try:
-        result = master.client("seedloop", "--steps", str(STEPS), "--wait-recorder", timeout=150)
+        result = master.client(
+            "tutorialloop", "--steps", str(STEPS), "--wait-recorder", timeout=150
+        )
     finally:
         stop(recorder, signal.SIGINT, timeout=20)
         # rosbag's wrapper exits at once; its `record` child renames .bag.active when done
@@ -94,7 +98,7 @@ def test_seed_loop_drives_30_s_and_rosbag_record_matches_the_recorder(master, se
 
 
 @pytest.fixture(scope="module")
-def robot2(start_node, seed_node):
+def robot2(start_node, tutorial_node):
     """A second robot in its own namespace, in sync mode, running."""
     return start_node("--namespace", "robot2", "--sync", "--env", "num_obstacles=[0,0]")
 
@@ -106,8 +110,8 @@ def test_n_triggers_advance_exactly_n_steps(master, robot2):
     assert result["clocks"] == 25  # and nothing more while nobody triggers
 
 
-def test_two_robots_in_namespaces(master, seed_node, robot2):
-    assert seed_node.alive(), seed_node.output
+def test_two_robots_in_namespaces(master, tutorial_node, robot2):
+    assert tutorial_node.alive(), tutorial_node.output
     topics = master.run(["/usr/bin/rostopic", "list"]).stdout.split()
     for name in ("scan", "odom", "simulationState", "triggerNextStep", "cmd_vel"):
         assert f"/{name}" in topics and f"/robot2/{name}" in topics, name

@@ -112,7 +112,7 @@ def test_range_reports_the_proximity_sensors_radiation_type(radiation, expected)
     converter = RosConverter(EnvSpecs.from_env(env), "jazzy")
     message = converter.message("proximity", converter.frame_values(obs, info, 0))
     types = converter.store.types["sensor_msgs/msg/Range"]
-    assert message.radiation_type == expected  # default: ULTRASOUND, the seed's FrontUS
+    assert message.radiation_type == expected  # default: ULTRASOUND, the tutorial's FrontUS
     assert expected == (types.INFRARED if radiation else types.ULTRASOUND)
 
 

@@ -24,7 +24,13 @@ from typing import TYPE_CHECKING, Any, SupportsFloat
 import numpy as np
 from numpy.typing import NDArray
 
-from bubblerob_env.ros.messages.values import ROW, rep117, row_columns
+from bubblerob_env.ros.messages.values import (
+    ROW,
+    commanded_twist,
+    rep117,
+    row_columns,
+    split_stamp,
+)
 
 if TYPE_CHECKING:
     from bubblerob_env.specs import EnvSpecs
@@ -86,12 +92,12 @@ class FrameBatch:
         image = None
         if self._camera:
             image = np.ascontiguousarray(obs["camera"], dtype=np.uint8).tobytes()
-        sources = {"info": info, "obs": obs}
-        parts = [
-            action if source == "action" else sources[source][key]
-            for source, key, _ in ROW
-            if key != "laser" or self._laser
-        ]
+        parts: tuple[Any, ...] = (  # in ROW order (checked below, at import)
+            info["position"], info["quaternion_wxyz"], info["body_twist"], info["wheel_command"],
+            obs["proximity"], action,
+        )  # fmt: skip
+        if self._laser:
+            parts += (obs["laser"],)
         np.concatenate(parts, out=self._rows[self._count], casting="unsafe")
         self._count += 1  # the frame is complete: only now does the batch hold it
         self._scalars.append(scalars)
@@ -114,8 +120,8 @@ class FrameBatch:
         stamps = np.array(stamp, dtype=np.int64)
         action_stamps = np.array(action_stamp, dtype=np.int64)
         specs = self.specs
-        sec, nanosec = np.divmod(stamps, 1_000_000_000)
-        action_sec, action_nsec = np.divmod(action_stamps, 1_000_000_000)
+        sec, nanosec = split_stamp(stamps)
+        action_sec, action_nsec = split_stamp(action_stamps)
         at = self._at
         proximity = rep117(
             rows[:, at["proximity"].start].copy(),
@@ -125,12 +131,7 @@ class FrameBatch:
         raw = np.ascontiguousarray(rows[:, at["action"]], dtype="<f8")
         left, right = rows[:, at["wheel_command"]].T
         position, quaternion_wxyz = rows[:, at["position"]].T, rows[:, at["quaternion_wxyz"]].T
-        if specs.action_type == "twist":
-            clipped = np.clip(raw, -1.0, 1.0)
-            linear = clipped[:, 0] * specs.max_linear_speed
-            angular = clipped[:, 1] * specs.max_angular_speed
-        else:
-            linear, angular = specs.drive.body_twist(left, right)
+        linear, angular = commanded_twist(specs, raw, left, right)
         columns: dict[str, NDArray[Any]] = {
             "sec": sec, "nanosec": nanosec, "seq": np.array(seq, dtype=np.int64) & 0xFFFFFFFF,
             "sim_time": stamps * 1e-9, "proximity": proximity,
@@ -160,3 +161,9 @@ class FrameBatch:
                 len(stamps), -1
             )
         return columns
+
+
+# FrameBatch.add gathers a row with a tuple literal (the cheapest per step): keep it in ROW order.
+assert [key for _, key, _ in ROW] == [
+    "position", "quaternion_wxyz", "body_twist", "wheel_command", "proximity", "action", "laser",
+], "FrameBatch.add gathers in ROW order"  # fmt: skip

@@ -1,4 +1,4 @@
-"""``SimNode``: BubbleRob as a ROS node, with the seeds' topics and the CoppeliaSim control surface.
+"""``SimNode``: BubbleRob as a ROS node, with the tutorial's topics and CoppeliaSim's controls.
 
 Every frame goes out through :class:`~bubblerob_env.ros.live.wrapper.RosLivePublisher` (the
 conversion layer's topics plus ``/clock``), except the wheel-command topics, which are the node's

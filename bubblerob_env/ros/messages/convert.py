@@ -31,10 +31,16 @@ from rosbags.typesys.store import Typestore
 
 from bubblerob_env.ros.messages.distros import get_distro, typestore
 from bubblerob_env.ros.messages.topics import MSGTYPES
-from bubblerob_env.ros.messages.values import SCALAR_NAMES, STEP_NAMES, FrameValues, Slot
+from bubblerob_env.ros.messages.values import (
+    SCALAR_NAMES,
+    STEP_NAMES,
+    FrameValues,
+    Slot,
+    split_stamp,
+)
 from bubblerob_env.specs import EnvSpecs
 
-__all__ = ["FRAME_KEYS", "RosConverter", "split_stamp"]
+__all__ = ["FRAME_KEYS", "RosConverter"]
 
 ODOM_FRAME = "odom"
 BASE_FRAME = "base_link"
@@ -62,11 +68,6 @@ FRAME_KEYS = (
 _RESULT_KEYS = ("cmd_vel", "left_motor_speed", "right_motor_speed", "action")
 _STEP_KEYS = (*_RESULT_KEYS, "reward", "terminated", "truncated")
 _RADIATION = {"ULTRASOUND": 0, "INFRARED": 1}
-
-
-def split_stamp(stamp_ns: int) -> tuple[int, int]:
-    """Nanoseconds -> ``(sec, nanosec)``."""
-    return stamp_ns // 1_000_000_000, stamp_ns % 1_000_000_000
 
 
 class RosConverter(FrameValues):

@@ -63,7 +63,7 @@ def namespace_prefix(namespace: str) -> str:
 class Topics:
     """Topic name of each key; ``None`` leaves the topic out.
 
-    The defaults are REP-style names plus the seed tutorial's BubbleRob topics
+    The defaults are REP-style names plus the tutorial's BubbleRob topics
     (``/sensorTrigger``, ``/leftMotorSpeed``, ``/rightMotorSpeed``, ``/simulationTime``).
     Camera topics are written only when the env has its camera on.
     """
@@ -137,7 +137,7 @@ class Topics:
 
 PRESETS: dict[str, Topics] = {
     "default": Topics(),
-    # The V-REP Pioneer tutorial (seed 002): /vrep/... sensor and command topics, /simTime.
+    # The V-REP Pioneer tutorial (tutorial 002): /vrep/... sensor and command topics, /simTime.
     "vrep": Topics(
         scan="/vrep/scan",
         image="/vrep/image",
@@ -146,7 +146,7 @@ PRESETS: dict[str, Topics] = {
         simulation_time="/simTime",
     ),
 }
-"""Named topic sets: ``default`` and ``vrep`` (the seed tutorials' Pioneer names)."""
+"""Named topic sets: ``default`` and ``vrep`` (the tutorials' Pioneer names)."""
 
 
 def topics_preset(name: str, namespace: str = "") -> Topics:

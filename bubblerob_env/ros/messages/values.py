@@ -26,8 +26,10 @@ __all__ = [
     "STEP_NAMES",
     "FrameValues",
     "Slot",
+    "commanded_twist",
     "rep117",
     "row_columns",
+    "split_stamp",
 ]
 
 SCALAR_NAMES = (
@@ -82,6 +84,24 @@ class Slot:
     count: int | None = None
 
 
+def split_stamp(stamp_ns: Any) -> tuple[Any, Any]:
+    """Nanoseconds -> ``(sec, nanosec)``: of one stamp (ints) or of many (``int64`` arrays)."""
+    return stamp_ns // 1_000_000_000, stamp_ns % 1_000_000_000
+
+
+def commanded_twist(specs: EnvSpecs, action: Any, left: Any, right: Any) -> tuple[Any, Any]:
+    """``(linear x, angular z)`` a step commanded, in m/s and rad/s.
+
+    ``twist`` actions are clipped and scaled as the env does, ``wheels`` actions go through the
+    drive's forward kinematics (``left``, ``right``: the wheel command, rad/s). One frame: an
+    action of shape ``(2,)`` and floats; many: ``(n, 2)`` and arrays.
+    """
+    if specs.action_type == "twist":
+        clipped = np.clip(action, -1.0, 1.0)
+        return clipped[..., 0] * specs.max_linear_speed, clipped[..., 1] * specs.max_angular_speed
+    return specs.drive.body_twist(left, right)
+
+
 class FrameValues:
     """Field values of env frames (see the module docstring)."""
 
@@ -117,7 +137,7 @@ class FrameValues:
         ``action`` is ``None`` after a ``reset``.
         """
         # Called every step while recording: plain calls, a tuple (no dict), numpy for the scan.
-        sec, nanosec = divmod(stamp_ns, 1_000_000_000)
+        sec, nanosec = split_stamp(stamp_ns)
         qw, qx, qy, qz = info["quaternion_wxyz"].tolist()
         proximity = rep117(
             obs["proximity"].astype(np.float64), self._proximity_min, self._proximity_max
@@ -137,12 +157,7 @@ class FrameValues:
             return args
         raw = np.asarray(action, dtype="<f8").reshape(-1)
         left, right = info["wheel_command"].tolist()
-        if self.specs.action_type == "twist":
-            linear_action, angular_action = (min(max(v, -1.0), 1.0) for v in raw.tolist())
-            linear = linear_action * self.specs.max_linear_speed
-            angular = angular_action * self.specs.max_angular_speed
-        else:
-            linear, angular = self.specs.drive.body_twist(left, right)
+        linear, angular = commanded_twist(self.specs, raw, left, right)
         return (
             *args, raw.tobytes(), left, right, float(linear), float(angular),
             float(reward), bool(terminated), bool(truncated),

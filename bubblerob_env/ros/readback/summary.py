@@ -20,7 +20,6 @@ __all__ = [
     "TopicSummary",
     "bag_root",
     "find_episodes",
-    "open_reader",
     "read_summary",
 ]
 
@@ -78,13 +77,6 @@ def bag_root(path: str | Path) -> Path:
     if storage_file and (path.parent / "metadata.yaml").exists():
         return path.parent
     return path
-
-
-def open_reader(path: str | Path) -> AnyReader:
-    """An opened ``AnyReader`` of the bag at ``path`` (close it, or use it in ``with``)."""
-    reader = AnyReader([bag_root(path)])
-    reader.open()
-    return reader
 
 
 def _storage(root: Path) -> str:
