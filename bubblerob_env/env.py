@@ -34,7 +34,7 @@ from bubblerob_env.checks import (
     check_start_pose,
     unexpected_kwargs_error,
 )
-from bubblerob_env.kinematics import DiffDrive, yaw_from_quat
+from bubblerob_env.kinematics import DiffDrive
 from bubblerob_env.rendering import HumanViewer, OverheadRenderer
 from bubblerob_env.sensors import (
     RADIATION_TYPES,
@@ -52,6 +52,7 @@ __all__ = ["ACTION_TYPES", "BubbleRobEnv"]
 
 ACTION_TYPES = ("wheels", "twist")
 _DEFAULT_CAMERA_SIZE = 64
+_DATA_VIEWS = ("_ctrl", "_sensordata", "_pose", "_warnings")  # see _bind_views
 _REWARD_PARTS = ("reward_forward", "reward_spin", "reward_clearance", "reward_collision")
 # MuJoCo resets the state itself after these: the episode cannot go on.
 _DIVERGENCE_WARNINGS = (
@@ -59,6 +60,7 @@ _DIVERGENCE_WARNINGS = (
     mujoco.mjtWarning.mjWARN_BADQPOS,
     mujoco.mjtWarning.mjWARN_BADQVEL,
 )
+_BADQACC, _BADQPOS, _BADQVEL = (int(w) for w in _DIVERGENCE_WARNINGS)
 
 
 class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
@@ -333,7 +335,8 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
             self._camera = CameraSensor(self.model, self.camera_spec)
         self.static_transforms: tuple[StaticTransform, ...] = static_transforms(self.model)
 
-        self._is_obstacle = self.model.geom_group == names.OBSTACLE_GROUP
+        # A list: indexing it with a few contacts' geom ids is faster than numpy fancy indexing.
+        self._is_obstacle: list[bool] = (self.model.geom_group == names.OBSTACLE_GROUP).tolist()
         self._base = self.model.body(names.BASE_BODY).id
         self._root_qpos = int(self.model.joint(names.ROOT_JOINT).qposadr[0])
         sensor_adr = {
@@ -351,9 +354,16 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
             sensor_adr[names.LEFT_WHEEL_SPEED_SENSOR],
             sensor_adr[names.RIGHT_WHEEL_SPEED_SENSOR],
         ]
+        # Index arrays for the step path: one gather each instead of slices and concatenations.
+        self._velocity_idx = np.array([self._velocity_adr, self._gyro_adr + 2])
+        self._twist_idx = np.r_[
+            self._velocity_adr : self._velocity_adr + 3, self._gyro_adr : self._gyro_adr + 3
+        ]
+        self._wheel_idx = np.array(self._wheel_adr)
 
         self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
         self._velocity_limit = np.array([2 * self.max_linear_speed, 2 * self.max_angular_speed])
+        self._velocity_low = -self._velocity_limit
         obs_spaces: dict[str, spaces.Space[Any]] = {}
         if self.laser_spec is not None:
             obs_spaces["laser"] = spaces.Box(0.0, laser_range_max, (laser_num_rays,), np.float32)
@@ -377,6 +387,14 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
         self._last_laser: NDArray[np.float32] | None = None
         self._clipped_actions = 0
         self._closed = False
+        self._bind_views()
+
+    def _bind_views(self) -> None:
+        # Views into self.data for the step path; rebuilt after unpickling (a copy has new data).
+        self._ctrl = self.data.ctrl
+        self._sensordata = self.data.sensordata
+        self._pose = self.data.qpos[self._root_qpos : self._root_qpos + 7]
+        self._warnings = self.data.warning.number
 
     def _size_framebuffer(self, *sizes: tuple[int, int]) -> None:
         # Renderers need an offscreen buffer at least as large as their image.
@@ -428,39 +446,24 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
     ) -> tuple[dict[str, NDArray[Any]], float, bool, bool, dict[str, Any]]:
         """Apply ``action`` for one control step (see Action Space)."""
         self._check_open("step")
-        raw = np.asarray(action, dtype=np.float64)
-        if raw.shape != (2,):
-            raise ValueError(f"action must have shape (2,), got shape {raw.shape}: {raw!r}")
-        if not np.all(np.isfinite(raw)):
-            raise ValueError(
-                f"action {raw.tolist()} contains NaN or infinity; actions must be finite numbers, "
-                "and are clipped to [-1, 1]"
-            )
-        clipped = np.clip(raw, -1.0, 1.0)
-        was_clipped = bool(np.any(clipped != raw))
+        command, was_clipped = self._command(action)
         self._clipped_actions += was_clipped
-        if self.action_type == "wheels":
-            command = clipped * self.drive.max_wheel_speed
-        else:
-            command = self.drive.wheel_speeds(
-                clipped[0] * self.max_linear_speed, clipped[1] * self.max_angular_speed
-            )
-        self.data.ctrl[:] = command
+        self._ctrl[:] = command
         # step2 then step1 leaves kinematics, contacts and sensors computed for the final state:
         # the same work as mj_step, but the observation is not one substep stale.
+        model, data = self.model, self.data
+        step1, step2 = mujoco.mj_step1, mujoco.mj_step2
         for _ in range(self.physics_substeps):
-            mujoco.mj_step2(self.model, self.data)
-            mujoco.mj_step1(self.model, self.data)
+            step2(model, data)
+            step1(model, data)
 
         diverged = self._diverged()
         obs = self._observe()
         collision = self._in_collision()
-        forward_speed, yaw_rate = obs["velocity"]
+        forward_speed, yaw_rate = obs["velocity"].tolist()
         parts = {
-            "reward_forward": self.forward_reward_weight
-            * float(forward_speed)
-            / self.max_linear_speed,
-            "reward_spin": -self.spin_cost_weight * abs(float(yaw_rate)) / self.max_angular_speed,
+            "reward_forward": self.forward_reward_weight * forward_speed / self.max_linear_speed,
+            "reward_spin": -self.spin_cost_weight * abs(yaw_rate) / self.max_angular_speed,
             "reward_clearance": -self.clearance_cost_weight * self._closeness(obs),
             "reward_collision": -self.collision_penalty if collision else 0.0,
         }
@@ -473,14 +476,38 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
             info["physics_diverged"] = diverged
         return obs, reward, terminated, bool(diverged), info
 
+    def _command(self, action: NDArray[np.float32]) -> tuple[NDArray[np.float64], bool]:
+        """Wheel speed targets (rad/s) for ``action``, and whether it had to be clipped."""
+        raw = np.asarray(action, dtype=np.float64)
+        if raw.shape != (2,):
+            raise ValueError(f"action must have shape (2,), got shape {raw.shape}: {raw!r}")
+        a0, a1 = raw.tolist()
+        if not (math.isfinite(a0) and math.isfinite(a1)):
+            raise ValueError(
+                f"action {[a0, a1]} contains NaN or infinity; actions must be finite numbers, "
+                "and are clipped to [-1, 1]"
+            )
+        # Python floats give the same IEEE results as np.clip and numpy's products, faster.
+        c0, c1 = min(1.0, max(-1.0, a0)), min(1.0, max(-1.0, a1))
+        was_clipped = c0 != a0 or c1 != a1
+        if self.action_type == "wheels":
+            limit = self.drive.max_wheel_speed
+            return np.array([c0 * limit, c1 * limit]), was_clipped
+        return self.drive.wheel_speeds(
+            c0 * self.max_linear_speed, c1 * self.max_angular_speed
+        ), was_clipped
+
     def _diverged(self) -> str:
         """MuJoCo's divergence warning from this step, or ``""``.
 
         MuJoCo resets the state by itself when the accelerations blow up, so the episode is
         truncated with the reason in ``info["physics_diverged"]`` and a logged warning.
         """
+        counts = self._warnings
+        if not (counts[_BADQACC] or counts[_BADQPOS] or counts[_BADQVEL]):
+            return ""
         for warning in _DIVERGENCE_WARNINGS:
-            if self.data.warning[warning].number:
+            if counts[warning]:
                 message = (
                     f"MuJoCo reported {warning.name} (the simulation diverged and MuJoCo reset "
                     f"it) at sim time {self.data.time:.3f} s; the episode is truncated. Lower "
@@ -493,23 +520,28 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
     def __getstate__(self) -> dict[str, Any]:
         # Windows and OpenGL contexts cannot be pickled or deep-copied; a copy (SB3, RLlib and
         # vector envs pickle envs) re-creates them on first use, as the original did.
-        return {**self.__dict__, "_overhead": None, "_viewer": None}
+        state = {**self.__dict__, "_overhead": None, "_viewer": None}
+        for view in _DATA_VIEWS:
+            state.pop(view, None)
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._bind_views()
 
     def _check_open(self, method: str) -> None:
         if self._closed:
             raise RuntimeError(f"{method}() called after close(); make a new env")
 
     def _observe(self) -> dict[str, NDArray[Any]]:
-        sensordata = self.data.sensordata
-        velocity = np.array([sensordata[self._velocity_adr], sensordata[self._gyro_adr + 2]])
         obs: dict[str, NDArray[Any]] = {}
         if self._laser is not None:
             self._last_laser = self._laser(self.model, self.data, self.np_random)
             obs["laser"] = self._last_laser
         obs["proximity"] = self._proximity(self.model, self.data)
-        obs["velocity"] = np.clip(velocity, -self._velocity_limit, self._velocity_limit).astype(
-            np.float32
-        )
+        velocity = self._sensordata[self._velocity_idx]
+        np.clip(velocity, self._velocity_low, self._velocity_limit, out=velocity)
+        obs["velocity"] = velocity.astype(np.float32)
         if self._camera is not None:
             obs["camera"] = self._camera(self.model, self.data)
         return obs
@@ -521,8 +553,14 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
 
     def _in_collision(self) -> bool:
         # Only robot geoms collide with walls and obstacles (contype/conaffinity in the MJCF).
-        pairs = self.data.contact.geom[: self.data.ncon]
-        return bool(self._is_obstacle[pairs].any())
+        ncon = self.data.ncon
+        if not ncon:
+            return False
+        is_obstacle = self._is_obstacle
+        for geom1, geom2 in self.data.contact.geom[:ncon].tolist():
+            if is_obstacle[geom1] or is_obstacle[geom2]:
+                return True
+        return False
 
     def _info(
         self,
@@ -532,26 +570,22 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
         parts: dict[str, float],
         clipped: bool,
     ) -> dict[str, Any]:
-        adr = self._root_qpos
-        position = self.data.qpos[adr : adr + 3].copy()
-        quat = self.data.qpos[adr + 3 : adr + 7].copy()
-        sensordata = self.data.sensordata
-        twist = np.concatenate(
-            [
-                sensordata[self._velocity_adr : self._velocity_adr + 3],
-                sensordata[self._gyro_adr : self._gyro_adr + 3],
-            ]
-        )
+        pose = self._pose
+        position = pose[:3].copy()
+        quat = pose[3:].copy()
+        w, x, y, z = quat.tolist()
+        sensordata = self._sensordata
         return {
             "sim_time": float(self.data.time),
             "x": float(position[0]),
             "y": float(position[1]),
-            "yaw": yaw_from_quat(quat),
+            # kinematics.yaw_from_quat, inlined
+            "yaw": math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)),
             "position": position,
             "quaternion_wxyz": quat,
-            "body_twist": twist,
-            "wheel_speeds": sensordata[self._wheel_adr].copy(),
-            "wheel_command": np.asarray(command, dtype=np.float64).copy(),
+            "body_twist": sensordata[self._twist_idx],
+            "wheel_speeds": sensordata[self._wheel_idx],
+            "wheel_command": np.array(command, dtype=np.float64),
             "collision": collision,
             "proximity_triggered": self.proximity_spec.triggered(float(obs["proximity"][0])),
             "action_clipped": clipped,

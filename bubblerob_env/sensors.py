@@ -269,12 +269,13 @@ class Laser:
         rng: np.random.Generator | None = None,
     ) -> NDArray[np.float32]:
         """Scan once; noise (if the spec has any) is drawn from ``rng``."""
-        rot = data.site_xmat[self._site].reshape(3, 3)
+        site = self._site
+        rot = data.site_xmat[site].reshape(3, 3)
         np.matmul(self._local_dirs, rot.T, out=self._world_dirs.reshape(-1, 3))
         mujoco.mj_multiRay(
             model,
             data,
-            data.site_xpos[self._site],
+            data.site_xpos[site],
             self._world_dirs,
             self._geomgroup,
             1,
