@@ -42,6 +42,7 @@ DEFAULT_SCENE = ASSETS_DIR / "arena.xml"
 ROBOT_RADIUS = 0.11
 """Radius of a circle around base_link that holds the whole robot (wheels' outer rims, 0.108 m,
 rounded up), metres; ``tests/test_assets.py`` checks it against the model's geoms."""
+_CAMERA_NEAR_CLIP = 0.005  # metres
 _PARKED_Z = -10.0  # unused obstacle slots wait below the floor, out of every ray's reach
 _MAX_TRIES = 200
 
@@ -118,7 +119,11 @@ def build_model(
                 if geom_type == mujoco.mjtGeom.mjGEOM_BOX
                 else [0.1, half_height, 0.0],
             )
-    return spec.compile(), has_arena
+    model = spec.compile()
+    # MuJoCo's near clipping plane is a fraction of the model's extent (12 m for the default
+    # arena, so 12 cm): the camera, 4 cm behind the nose, lost obstacles right in front of it.
+    model.vis.map.znear = _CAMERA_NEAR_CLIP / model.stat.extent
+    return model, has_arena
 
 
 class ObstacleSlots:

@@ -450,16 +450,19 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
         self._clipped_actions += was_clipped
         self._ctrl[:] = command
         # step2 then step1 leaves kinematics, contacts and sensors computed for the final state:
-        # the same work as mj_step, but the observation is not one substep stale.
+        # the same work as mj_step, but the observation is not one substep stale. Contacts are
+        # checked after every substep: a touch that begins and ends inside one control step
+        # is still a collision.
         model, data = self.model, self.data
-        step1, step2 = mujoco.mj_step1, mujoco.mj_step2
+        step1, step2, in_collision = mujoco.mj_step1, mujoco.mj_step2, self._in_collision
+        collision = False
         for _ in range(self.physics_substeps):
             step2(model, data)
             step1(model, data)
+            collision = collision or in_collision()
 
         diverged = self._diverged()
         obs = self._observe()
-        collision = self._in_collision()
         forward_speed, yaw_rate = obs["velocity"].tolist()
         parts = {
             "reward_forward": self.forward_reward_weight * forward_speed / self.max_linear_speed,

@@ -12,14 +12,15 @@ through the obstacles the sampler rejects for crowding it, so each test draws a 
 layout with the robot parked in a corner (where, with ``start_clearance=0``, it can reject no
 obstacle) and keeps only the poses whose reset reproduces that layout.
 
-Three known bugs are pinned by strict xfail tests (each fails today and will XPASS, so fail, once
-fixed): a wheel sinks into cylinder obstacles (MuJoCo 4's multi-contact CCD), a touch that begins
-and ends inside one control step is not reported, and the camera does not see surfaces nearer than
-its near clipping plane (12.5 cm). The flags below say which checks the other tests leave to them.
+Three bugs these tests found have their own tests: a wheel sank into cylinder obstacles (MuJoCo
+4's multi-contact CCD, now off in the robot's MJCF), a touch that began and ended inside one
+control step was not reported (the env now checks contacts after every physics step), and the
+camera did not draw surfaces nearer than 12.5 cm (its near clipping plane is now 5 mm).
 """
 
 from __future__ import annotations
 
+import functools
 import importlib.util
 import math
 import time
@@ -28,6 +29,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import gymnasium as gym
+import mujoco
 import numpy as np
 import pytest
 from numpy.typing import NDArray
@@ -70,11 +72,6 @@ RAY_TOL = 0.002  # laser and proximity readings against the oracle, metres
 PATH_MARGIN = 0.03  # a drive's path keeps this far from everything but its target, metres
 GAP = 2 * ROBOT_BOUND  # obstacles keep this far from each other and the walls (arena.py docs)
 TOUCH = 0.001  # footprints overlapping this much are certainly in contact, metres
-CAMERA_NEAR_OK = 0.15  # surfaces farther than this from the camera are drawn (near plane 0.125 m)
-
-# Known bugs (see the module docstring); set a flag to False once its xfail test passes.
-WHEEL_SINKS_INTO_CYLINDERS = True
-CAMERA_CLIPS_NEAR_SURFACES = True
 
 Shape = tuple  # ("circle", x, y, r) or ("box", x, y, yaw, half_x, half_y)
 
@@ -410,6 +407,7 @@ def test_oracle_separation_on_hand_computed_cases():
     assert what[0] == 0
 
 
+@functools.cache
 def _load_soak():
     path = Path(__file__).resolve().parents[1] / "bench" / "soak.py"
     spec = importlib.util.spec_from_file_location("bench_soak", path)
@@ -614,11 +612,10 @@ class Campaign:
 
 
 def robot_depths(parts: list[Shape], shape: Shape) -> tuple[float, float]:
-    """Overlap of the footprint with ``shape``: (checked parts, wheels if a known-bug pair)."""
+    """Overlap of the footprint with ``shape``: (deepest part, deepest wheel if a cylinder)."""
     separations = [separation(part, shape) for part in parts]
-    if WHEEL_SINKS_INTO_CYLINDERS and shape[0] == "circle":
-        return -separations[0], -min(separations[1:])
-    return -min(separations), -math.inf
+    wheel = -min(separations[1:]) if shape[0] == "circle" else -math.inf
+    return -min(separations), wheel
 
 
 def run_drives(
@@ -678,7 +675,11 @@ def run_drives(
 
 def _drive(env, fine, drive: Drive, target, others, terminate: bool, max_steps: int) -> None:
     action = np.array([1.0, 0.0], dtype=np.float32)
+    model, data = env.unwrapped.model, env.unwrapped.data
+    soak = _load_soak()
+    state = np.empty(mujoco.mj_stateSize(model, soak.STATE))
     for step in range(1, max_steps + 1):
+        mujoco.mj_getState(model, data, state, soak.STATE)
         touched = False
         if fine is not None:
             for _ in range(4):
@@ -712,7 +713,10 @@ def _drive(env, fine, drive: Drive, target, others, terminate: bool, max_steps: 
             )
         if info["collision"] and drive.first_collision is None:
             drive.first_collision = step
-            gap = footprint_separation(parts, target)
+            # The env reports a contact seen after any physics step: check all the step's poses.
+            poses = [Pose.from_qpos(*p) for p in soak.substep_poses(env, state)]
+            assert np.allclose(poses[-1].position, pose.position, atol=1e-9), drive.label
+            gap = min(footprint_separation(robot_footprint(p), target) for p in poses)
             if gap > CONTACT_TOL:
                 travel = math.hypot(x - drive.start[0], y - drive.start[1])
                 drive.problems.append(
@@ -756,17 +760,9 @@ def test_pushing_into_obstacles_never_sinks_in_or_gets_through(pushes):
     assert pushes.collisions == len(pushes.drives) >= 300, message
 
 
-@pytest.mark.xfail(
-    WHEEL_SINKS_INTO_CYLINDERS,
-    strict=True,
-    raises=AssertionError,
-    reason="MuJoCo 4.0 multi-contact CCD gives a wheel (cylinder) against a cylinder obstacle a "
-    "contact along the wheel's axis with ~1-2 mm depth while the wheel is up to ~2 cm inside; "
-    "<flag multiccd='disable'/> fixes it",
-)
 def test_wheels_do_not_sink_into_cylinders(pushes):
     wheel = [d for d in pushes.drives if d.approach.startswith("cylinder")]
-    if len(wheel) < 100:  # the test's own precondition: a real failure, never the xfail
+    if len(wheel) < 100:
         pytest.fail(f"only {len(wheel)} drives at cylinders")
     worst = max(wheel, key=lambda d: d.wheel_in_cylinder)
     assert worst.wheel_in_cylinder <= PENETRATION_TOL, (
@@ -774,16 +770,10 @@ def test_wheels_do_not_sink_into_cylinders(pushes):
     )
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason="info['collision'] looks at the contacts after the last physics step of a control "
-    "step only: a touch that begins and ends within one control step is not reported",
-)
 def test_a_touch_between_control_steps_is_reported():
     campaign = run_drives(range(6), terminate=False, max_steps=30, twin=True)
     missed = [d for d in campaign.drives if d.missed_touches]
-    if len(campaign.drives) < 60:  # the test's own precondition: a real failure, never the xfail
+    if len(campaign.drives) < 60:
         pytest.fail(f"only {len(campaign.drives)} drives")
     assert not missed, (
         f"{len(missed)} of {len(campaign.drives)} drives touched their obstacle (>= "
@@ -977,9 +967,7 @@ def test_camera_sees_what_the_ray_oracle_sees():
                 obs, _ = reset_at(env, seed, start)
                 layout = [obstacle_shape(o) for o in env.unwrapped.layout.obstacles]
                 expected, nearest = oracle_classes(pose, layout)
-                if CAMERA_CLIPS_NEAR_SURFACES and nearest < CAMERA_NEAR_OK:
-                    too_close += 1
-                    continue
+                too_close += nearest < 0.15
                 got = classify_pixels(obs["camera"])
                 clean = expected >= 0
                 wrong = int(np.sum(clean & (got != expected)))
@@ -998,8 +986,8 @@ def test_camera_sees_what_the_ray_oracle_sees():
     finally:
         env.close()
     message = (
-        f"{images} images ({ahead} with an obstacle 0.4 m ahead, {too_close} left out as nearer "
-        f"than {CAMERA_NEAR_OK} m, {not_free} poses not free): {mismatched} of {compared} clean "
+        f"{images} images ({ahead} with an obstacle 0.4 m ahead, {too_close} with a surface "
+        f"nearer than 0.15 m, {not_free} poses not free): {mismatched} of {compared} clean "
         f"pixels differ, worst image {100 * worst[0]:.2f}% ({worst[1]})"
     )
     print(message)
@@ -1008,13 +996,6 @@ def test_camera_sees_what_the_ray_oracle_sees():
     assert worst[0] <= 0.01, message
 
 
-@pytest.mark.xfail(
-    CAMERA_CLIPS_NEAR_SURFACES,
-    strict=True,
-    raises=AssertionError,
-    reason="the camera's near clipping plane is 0.01 x the model extent (12.5 cm): nearer "
-    "surfaces are not drawn and the camera sees through an obstacle right in front of it",
-)
 def test_camera_sees_an_obstacle_10_cm_ahead():
     env = make_env(camera=True)
     try:
@@ -1025,7 +1006,6 @@ def test_camera_sees_an_obstacle_10_cm_ahead():
         obs, _ = reset_at(env, seed, start)
         expected, nearest = oracle_classes(Pose.planar(*start), shapes)
         centre = (slice(24, 40), slice(24, 40))
-        # The test's own preconditions: a real failure, never the xfail.
         if not (
             free_of(robot_footprint(Pose.planar(*start)), shapes, 0.001)
             and [obstacle_shape(o) for o in env.unwrapped.layout.obstacles] == shapes
