@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import gymnasium as gym
 import numpy as np
 from rosbags.rosbag1 import Reader
@@ -73,3 +75,36 @@ def test_muted_topics_are_not_sent():
     live.step(np.zeros(2, dtype=np.float32))
     assert len(backend.sent["/scan"]) == 2 and len(backend.sent["/odom"]) == 3
     live.close()
+
+
+def test_live_episode_metadata_is_the_recorders_with_rng_state(tmp_path):
+    from bubblerob_env.ros.messages.distros import deserialize
+
+    def unseeded(env: gym.Env) -> None:
+        env.reset(seed=4)
+        env.step(np.zeros(2, dtype=np.float32))
+        env.reset()  # unseeded: replay needs the generator's state
+        env.step(np.zeros(2, dtype=np.float32))
+
+    backend = FakeBackend()
+    live = RosLivePublisher(gym.make("BubbleRob-v0"), backend)
+    unseeded(live)
+    live.close()
+    with RosBagRecorder(gym.make("BubbleRob-v0"), tmp_path / "b", format="ros1") as recorder:
+        unseeded(recorder)
+
+    def decode(raw: bytes) -> dict:
+        return json.loads(deserialize("noetic", raw, "std_msgs/msg/String").data)
+
+    published = [decode(raw) for raw in backend.sent["/bubblerob/episode"]]
+    with Reader(tmp_path / "b.bag") as reader:
+        recorded = [
+            decode(bytes(raw))
+            for connection, _, raw in reader.messages()
+            if connection.topic == "/bubblerob/episode"
+        ]
+    assert len(published) == len(recorded) == 2
+    for live_meta, bag_meta in zip(published, recorded, strict=True):
+        assert live_meta.pop("format") == "live" and bag_meta.pop("format") == "ros1"
+        assert live_meta == bag_meta
+    assert published[0]["rng_state"] is None and published[1]["rng_state"]["bit_generator"]

@@ -20,20 +20,14 @@ from bubblerob_env.ros.live.backend import (
     RosUnavailableError,
     load_backend,
 )
-from bubblerob_env.ros.live.controls import ControlState, ControlTopics
-from bubblerob_env.ros.live.node import PAUSED, RUNNING, STOPPED, NodeConfig, SimNode
-from bubblerob_env.ros.live.sink import LiveSink
+from bubblerob_env.ros.live.controls import ControlState
+from bubblerob_env.ros.live.node import NodeConfig, SimNode
 from bubblerob_env.ros.live.wrapper import RosLivePublisher
 
 __all__ = [
-    "PAUSED",
-    "RUNNING",
-    "STOPPED",
     "BackendError",
     "ControlState",
-    "ControlTopics",
     "LiveBackend",
-    "LiveSink",
     "MasterUnreachableError",
     "NodeConfig",
     "RosLivePublisher",
