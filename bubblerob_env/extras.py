@@ -39,7 +39,7 @@ def _requirements(extra: str) -> tuple[str, ...]:
         if found is None or found.group(1) != extra:
             continue
         match = _NAME.match(requirement_part)
-        if match is None:
+        if match is None or not _applies(marker, extra):
             continue
         name = _normalize(match.group(1))
         if name == _DIST:
@@ -49,6 +49,17 @@ def _requirements(extra: str) -> tuple[str, ...]:
         else:
             names.append(name)
     return tuple(dict.fromkeys(names))
+
+
+def _applies(marker: str, extra: str) -> bool:
+    """Whether a requirement's marker (e.g. ``python_version < '3.14'``) holds here."""
+    if not _EXTRA_MARKER.sub("", marker).strip(" ()and"):
+        return True  # only the extra clause
+    try:
+        from packaging.markers import Marker
+    except ModuleNotFoundError:
+        return False  # cannot tell: do not call it missing
+    return bool(Marker(marker).evaluate({"extra": extra}))
 
 
 def missing_requirements(extra: str) -> list[str]:

@@ -1,4 +1,11 @@
-"""Write the notebooks from the cells below (edit here, then run this to regenerate)."""
+"""Write the notebooks from the cells below and execute them (edit here, then run this).
+
+    python notebooks/make_notebooks.py              # write and execute (outputs committed)
+    python notebooks/make_notebooks.py --no-execute # write the cells only
+
+The notebooks are committed with their outputs, so a code host shows them; the tests re-execute
+them (nbmake) and check that their cells are the ones below (tests/test_notebooks.py).
+"""
 
 from __future__ import annotations
 
@@ -127,14 +134,49 @@ TRAINING = [
 ]
 
 
-def main() -> None:
-    """Write quickstart.ipynb and training.ipynb."""
-    for name, cells in (("quickstart", QUICKSTART), ("training", TRAINING)):
-        notebook = new_notebook(cells=cells)
-        notebook.metadata["kernelspec"] = {
-            "name": "python3", "display_name": "Python 3", "language": "python"
-        }
+NOTEBOOKS = {"quickstart": QUICKSTART, "training": TRAINING}
+KERNELSPEC = {"name": "python3", "display_name": "Python 3", "language": "python"}
+
+
+def build(name: str) -> nbformat.NotebookNode:
+    """The notebook ``name`` without outputs, with stable cell ids (``name-index``)."""
+    notebook = new_notebook(cells=[nbformat.from_dict(cell) for cell in NOTEBOOKS[name]])
+    for index, cell in enumerate(notebook.cells):
+        cell.id = f"{name}-{index}"
+    notebook.metadata["kernelspec"] = dict(KERNELSPEC)
+    return notebook
+
+
+def execute(notebook: nbformat.NotebookNode) -> None:
+    """Run every cell in this folder, keeping outputs (no timing metadata)."""
+    from nbclient import NotebookClient
+
+    client = NotebookClient(
+        notebook,
+        timeout=900,
+        kernel_name="python3",
+        record_timing=False,
+        resources={"metadata": {"path": str(HERE)}},
+    )
+    client.execute()
+    notebook.metadata.pop("widgets", None)
+    notebook.metadata["kernelspec"] = dict(KERNELSPEC)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Write (and by default execute) quickstart.ipynb and training.ipynb."""
+    import argparse
+
+    parser = argparse.ArgumentParser(description="Write and execute the notebooks.")
+    parser.add_argument("--no-execute", action="store_true", help="write the cells only")
+    parser.add_argument("names", nargs="*", default=list(NOTEBOOKS), help="notebooks to write")
+    args = parser.parse_args(argv)
+    for name in args.names:
+        notebook = build(name)
+        if not args.no_execute:
+            execute(notebook)
         nbformat.write(notebook, HERE / f"{name}.ipynb")
+        print(f"wrote {HERE / f'{name}.ipynb'}")
 
 
 if __name__ == "__main__":

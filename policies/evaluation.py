@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import shutil
+import subprocess
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -190,14 +192,32 @@ def _check_video_path(path: Path) -> None:
 
 
 # GIF in one pass: each frame gets its own 256-colour palette, so ffmpeg never holds the clip.
-_GIF_FILTER = "split[a][b];[a]palettegen=stats_mode=single[p];[b][p]paletteuse=new=1"
+_GIF_FILTER = (
+    "split[a][b];[a]palettegen=stats_mode=single:reserve_transparent=0[p];[b][p]paletteuse=new=1"
+)
+
+
+def ffmpeg_executable() -> str:
+    """imageio-ffmpeg's ffmpeg if that package is installed, else ``ffmpeg`` on the PATH."""
+    try:
+        import imageio_ffmpeg
+    except ModuleNotFoundError:
+        found = shutil.which("ffmpeg")
+        if found is None:
+            raise SystemExit(
+                "writing a video needs ffmpeg: apt-get install ffmpeg (or pip install "
+                "imageio-ffmpeg); --no-video skips the video"
+            ) from None
+        return found
+    return str(imageio_ffmpeg.get_ffmpeg_exe())
 
 
 class VideoWriter:
     """Streams RGB frames to ffmpeg as an MP4 (H.264) or a looping GIF, by the path's suffix.
 
-    ``append`` sends each frame to the encoder at once; nothing is kept in memory. The size is
-    taken from the first frame.
+    ``append`` pipes each frame to an ffmpeg process at once; nothing is kept in memory. The
+    size is taken from the first frame. ffmpeg is imageio-ffmpeg's (the [dev] extra) or the
+    system's (Debian's ``ffmpeg``).
     """
 
     def __init__(self, path: Path, fps: float) -> None:
@@ -212,33 +232,38 @@ class VideoWriter:
         frame = np.ascontiguousarray(frame[..., :3], dtype=np.uint8)
         if self._encoder is None:
             self._encoder = self._open(frame.shape[1], frame.shape[0])
-        self._encoder.send(frame)
+        self._send(frame)
         self.frames += 1
 
     def _open(self, width: int, height: int) -> Any:
-        import imageio_ffmpeg
-
         self.path.parent.mkdir(parents=True, exist_ok=True)
         if self.path.suffix.lower() == ".gif":
-            options: dict[str, Any] = dict(
-                codec="gif",
-                pix_fmt_out="pal8",
-                macro_block_size=1,
-                output_params=["-filter_complex", _GIF_FILTER, "-loop", "0"],
-            )
-        else:
-            options = dict(codec="libx264", pix_fmt_out="yuv420p", macro_block_size=8)
-        encoder = imageio_ffmpeg.write_frames(
-            str(self.path), (width, height), fps=self.fps, **options
-        )
-        encoder.send(None)  # start ffmpeg
-        return encoder
+            options = ["-filter_complex", _GIF_FILTER, "-loop", "0"]
+        else:  # H.264 needs even sizes
+            even = "scale=trunc(iw/2)*2:trunc(ih/2)*2"
+            options = ["-vf", even, "-c:v", "libx264", "-pix_fmt", "yuv420p", "-crf", "23"]
+        command = [
+            ffmpeg_executable(), "-y", "-loglevel", "error", "-f", "rawvideo",
+            "-pix_fmt", "rgb24", "-s", f"{width}x{height}", "-r", f"{self.fps}", "-i", "-",
+            "-an", *options, str(self.path),
+        ]  # fmt: skip
+        return subprocess.Popen(command, stdin=subprocess.PIPE, stderr=subprocess.PIPE)
+
+    def _send(self, frame: np.ndarray) -> None:
+        try:
+            self._encoder.stdin.write(frame.tobytes())
+        except BrokenPipeError:
+            self.close()
 
     def close(self) -> None:
         """Finish the file."""
-        if self._encoder is not None:
-            self._encoder.close()
-            self._encoder = None
+        encoder, self._encoder = self._encoder, None
+        if encoder is None:
+            return
+        encoder.stdin.close()
+        error = encoder.stderr.read().decode(errors="replace").strip()
+        if encoder.wait() != 0:
+            raise RuntimeError(f"ffmpeg could not write {self.path}: {error}")
 
     def __enter__(self) -> VideoWriter:
         return self

@@ -28,28 +28,63 @@ def _commands(block: str) -> list[str]:
 
 def test_ci_runs_readmes_set_up_commands():
     ci_lines = [line.strip() for line in CI_SCRIPT.splitlines()]
-    for command in _commands(_section_block("Set up")):
+    set_up = _commands(_section_block("Set up")) + _commands(_section_block("Run the tests"))[:-1]
+    assert len(set_up) >= 4
+    for command in set_up:
         assert command in ci_lines, f"CI does not run README's {command!r}"
+    # in README's order
+    positions = [ci_lines.index(command) for command in set_up]
+    assert positions == sorted(positions)
+
+
+def test_readmes_first_install_is_the_torch_free_demo_extra():
+    pip_commands = [c for c in _commands(_section_block("Set up")) if c.startswith("pip ")]
+    assert pip_commands[0] == 'pip install -e ".[demo]"'
+    assert "torch" not in _section_block("Set up").split("\n")[1]
+    # CI runs the demo between that install and the first one that brings torch
+    ci_lines = [line.strip() for line in CI_SCRIPT.splitlines()]
+    demo = next(i for i, line in enumerate(ci_lines) if line.startswith("bubblerob demo"))
+    first_torch = next(
+        i for i, line in enumerate(ci_lines) if "torch" in line and line[:4] == "pip "
+    )
+    assert ci_lines.index(pip_commands[0]) < demo < first_torch
 
 
 def test_ci_ends_with_readmes_test_command():
-    (test_command,) = _commands(_section_block("Run the tests"))
+    test_command = _commands(_section_block("Run the tests"))[-1]
+    assert test_command == "python -m pytest"
     ci_commands = [line for line in CI_SCRIPT.splitlines() if line and not line.startswith("#")]
     assert ci_commands[-1] == test_command
 
 
-def test_quickstart_runs():
-    (quickstart,) = _code_blocks("python")
-    result = subprocess.run(
-        [sys.executable, "-c", quickstart],
+def _run_python_block(code: str, tmp_path: Path) -> subprocess.CompletedProcess[str]:
+    # As a script file: SubprocVecEnv's forkserver workers re-import the main script.
+    script = tmp_path / "readme_block.py"
+    script.write_text(code)
+    return subprocess.run(
+        [sys.executable, str(script)],
         capture_output=True,
         text=True,
         timeout=300,
         cwd=ROOT,
         check=False,
     )
+
+
+def test_quickstart_runs(tmp_path):
+    quickstart, subprocesses = _code_blocks("python")
+    result = _run_python_block(quickstart, tmp_path)
     assert result.returncode == 0, result.stderr
     assert re.search(r"t=\d+\.\d\ds pose=\(", result.stdout)
+
+
+def test_subprocess_vector_env_example_runs(tmp_path):
+    quickstart, subprocesses = _code_blocks("python")
+    assert '"bubblerob_env:BubbleRob-v0"' in subprocesses
+    assert 'if __name__ == "__main__":' in subprocesses
+    result = _run_python_block(subprocesses, tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert "laser batch (2, 360)" in result.stdout
 
 
 def test_readme_figure_command_writes_the_picture(tmp_path):
@@ -72,7 +107,12 @@ def _run_section(heading: str, cwd: Path) -> subprocess.CompletedProcess[str]:
     script = "set -euo pipefail\n" + _section_block(heading)
     env = dict(os.environ, PATH=f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}")
     return subprocess.run(
-        ["bash", "-c", script], cwd=cwd, env=env, capture_output=True, text=True, timeout=900,
+        ["bash", "-c", script],
+        cwd=cwd,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=900,
         check=False,
     )
 
