@@ -1018,3 +1018,51 @@ def test_camera_sees_an_obstacle_10_cm_ahead():
         assert np.all(got[centre] == 0), f"image centre shows {shown!r}, not the obstacle"
     finally:
         env.close()
+
+
+def test_obstacles_are_solid_in_a_scene_given_by_xml_file():
+    # wall_test.xml has no resizable arena: the slots are added to it all the same. The robot is
+    # put 0.25 m from each obstacle's surface, facing its centre, and driven straight at it.
+    scene = Path(bubblerob_env.__file__).parent / "assets" / "scenes" / "wall_test.xml"
+    env = gym.make(
+        "BubbleRob-v0",
+        xml_file=scene,
+        action_type="twist",
+        arena_size=1.2,
+        num_obstacles=(2, 2),
+        start_clearance=0.0,
+    )
+    base = env.unwrapped
+    adr = base.model.joint("root").qposadr[0]
+    drives = collided = 0
+    for seed in range(30):
+        env.reset(seed=seed)
+        for obstacle in base.layout.obstacles:
+            shape = obstacle_shape(obstacle)
+            env.reset(seed=seed)
+            heading = float(np.random.default_rng(seed).uniform(-math.pi, math.pi))
+            reach = bounding_radius(shape) + ROBOT_BOUND + 0.25
+            x = obstacle.x - reach * math.cos(heading)
+            y = obstacle.y - reach * math.sin(heading)
+            pose = Pose.planar(x, y, heading)
+            if not free_of(
+                robot_footprint(pose), [s for s in map(obstacle_shape, base.layout.obstacles)], 0.01
+            ):
+                continue
+            base.data.qpos[adr : adr + 3] = (x, y, BASE_HEIGHT)
+            base.data.qpos[adr + 3 : adr + 7] = (math.cos(heading / 2), 0, 0, math.sin(heading / 2))
+            mujoco.mj_forward(base.model, base.data)
+            if base.data.ncon and any(
+                base.model.geom_group[g] == 0
+                for g in base.data.contact.geom[: base.data.ncon].ravel()
+            ):
+                continue  # placed against a scene wall: not a drive at the obstacle
+            drives += 1
+            for _ in range(40):
+                _, _, terminated, _, info = env.step(np.array([1.0, 0.0], np.float32))
+                assert shape_sdf(shape, info["x"], info["y"]) > 0.0, (seed, obstacle)
+                if terminated:
+                    collided += info["collision"]
+                    break
+    env.close()
+    assert drives >= 30 and collided == drives, (drives, collided)
