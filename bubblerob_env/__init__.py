@@ -11,7 +11,7 @@ from bubblerob_env._headless import use_egl_without_display
 
 use_egl_without_display()
 
-from gymnasium.envs.registration import WrapperSpec, register  # noqa: E402
+from gymnasium.envs.registration import register  # noqa: E402
 
 from bubblerob_env.env import ACTION_TYPES, BubbleRobEnv  # noqa: E402
 from bubblerob_env.kinematics import DiffDrive  # noqa: E402
@@ -38,9 +38,7 @@ __version__ = "0.1.0"
 register(
     id="BubbleRob-v0",
     entry_point="bubblerob_env.env:BubbleRobEnv",
+    # gym.make_vec(..., vectorization_mode="vector_entry_point"): N robots stepped per call.
+    vector_entry_point="bubblerob_env.vector:BubbleRobVectorEnv",
     max_episode_steps=1000,
-    # After TimeLimit: sets info["is_success"] on every episode's last step.
-    additional_wrappers=(
-        WrapperSpec("EpisodeSuccess", "bubblerob_env.wrappers:EpisodeSuccess", {}),
-    ),
 )

@@ -72,7 +72,7 @@ class ArenaLayout:
 
 
 def build_model(
-    xml_file: str | Path, arena_size: float, max_obstacles: int
+    xml_file: str | Path, arena_size: float, max_obstacles: int, memory: int | None = None
 ) -> tuple[mujoco.MjModel, bool]:
     """Compile a scene with ``max_obstacles`` cylinder and box slots added.
 
@@ -80,10 +80,15 @@ def build_model(
     side ``arena_size`` (keeping each wall's thickness and height from the scene), and the floor is
     resized to match. The slots take their height from the scene's ``obstacle`` class.
 
+    ``memory`` (bytes) sizes each ``MjData``'s arena (contacts, constraints, stack) unless the
+    scene sets ``<size memory=...>`` itself; by default MuJoCo's.
+
     Returns:
         The compiled model and whether the scene has the resizable arena walls.
     """
     spec = mujoco.MjSpec.from_file(str(xml_file))
+    if memory is not None and spec.memory < 0:
+        spec.memory = memory
     walls = [spec.geom(name) for name in names.ARENA_WALLS]
     has_arena = all(wall is not None for wall in walls)
     if has_arena:

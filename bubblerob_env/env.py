@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import inspect
 import math
 from pathlib import Path
@@ -120,8 +121,10 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
     MuJoCo contact between a robot geom and a wall or obstacle geom. Truncates at the time limit
     (``max_episode_steps=1000``, 50 s, set at registration), or when MuJoCo reports that the
     simulation diverged (``info["physics_diverged"]`` says why). On the last step of an episode
-    ``info["is_success"]`` tells whether it reached the time limit without any collision (set by
-    :class:`~bubblerob_env.wrappers.EpisodeSuccess`, which ``gym.make`` applies).
+    ``info["is_success"]`` tells whether it reached the time limit without any collision: every
+    step's ``info`` has it, meaning "no collision (and no divergence) so far", so on the last step
+    it is the episode's success whatever ended it. (The env sets it, not a wrapper after
+    ``TimeLimit``: ``gym.make_vec``'s vector entry point refuses specs with wrappers.)
 
     ## Arguments
     Every argument below is a keyword argument of ``gym.make("BubbleRob-v0", ...)``; unknown ones
@@ -143,6 +146,7 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 20}
+    _ARENA_MEMORY: int | None = None  # bytes of MjData arena; None: the scene's (MuJoCo default)
 
     def __init__(
         self,
@@ -285,7 +289,9 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
         self.terminate_on_collision = terminate_on_collision
 
         self.xml_file = Path(xml_file) if xml_file is not None else DEFAULT_SCENE
-        self.model, _ = build_model(self.xml_file, self.arena_size, self.num_obstacles[1])
+        self.model, _ = build_model(
+            self.xml_file, self.arena_size, self.num_obstacles[1], self._ARENA_MEMORY
+        )
         self.model.opt.timestep = control_timestep / physics_substeps
         self._size_framebuffer(
             (render_width, render_height),
@@ -386,6 +392,7 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
             HumanViewer.require_display()
         self._last_laser: NDArray[np.float32] | None = None
         self._clipped_actions = 0
+        self._collided = False
         self._closed = False
         self._bind_views()
 
@@ -434,6 +441,7 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
                 f"{self.xml_file.name}; choose a free pose"
             )
         self._clipped_actions = 0
+        self._collided = False
         obs = self._observe()
         parts = dict.fromkeys(_REWARD_PARTS, 0.0)
         info = self._info(obs, np.zeros(2), False, parts, False)
@@ -472,9 +480,12 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
         }
         reward = sum(parts.values())
         terminated = collision and self.terminate_on_collision
+        self._collided = self._collided or collision
         if self.render_mode == "human":
             self.render()
         info = self._info(obs, command, collision, parts, was_clipped)
+        # Success so far: on the episode's last step, whether the episode is a success.
+        info["is_success"] = not (self._collided or diverged)
         if diverged:
             info["physics_diverged"] = diverged
         return obs, reward, terminated, bool(diverged), info
@@ -531,6 +542,25 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
         self._bind_views()
+
+    def _spawn(self) -> BubbleRobEnv:
+        """A new env with these arguments, sharing what steps never change (spaces, specs).
+
+        For batches (:mod:`bubblerob_env.vector`): cheaper in time and memory than building or
+        deep-copying. Call it on an env that was never reset: the clone copies its model, gets
+        its own data, laser buffers and random generator, and behaves exactly as a new env.
+        """
+        clone = copy.copy(self)
+        clone.model = copy.copy(self.model)  # resets write obstacle sizes into the model
+        clone.data = mujoco.MjData(clone.model)
+        if self.laser_spec is not None:
+            clone._laser = Laser(clone.model, self.laser_spec)
+        if self.camera_spec is not None:
+            clone._camera = CameraSensor(clone.model, self.camera_spec)
+        clone._np_random = clone._np_random_seed = None
+        clone.layout = clone._last_laser = None
+        clone._bind_views()
+        return clone
 
     def _check_open(self, method: str) -> None:
         if self._closed:

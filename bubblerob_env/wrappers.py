@@ -1,10 +1,11 @@
-"""``EpisodeSuccess``: the one definition of a successful episode, as ``info["is_success"]``.
+"""``EpisodeSuccess``: ``info["is_success"]`` on the last step of an episode, after a time limit.
 
-Success means the episode reached its time limit without a collision. Only the time limit knows
-when that happens, and Gymnasium's ``TimeLimit`` wraps the env from outside, so the flag is set by
-this wrapper, which ``gym.make("BubbleRob-v0")`` applies right after ``TimeLimit`` (the env's
-registration lists it in ``additional_wrappers``). SB3's ``Monitor`` and ``EvalCallback``, our
-evaluation, training, demo and benches all read ``info["is_success"]`` on an episode's last step.
+The env itself now sets ``info["is_success"]`` on every step ("no collision so far"), which on an
+episode's last step is its success: ``gym.make_vec``'s vector entry point refuses a spec with
+``additional_wrappers``, so ``BubbleRob-v0`` no longer registers this wrapper. It is kept for code
+that applies it to other envs or wants the flag on the last step only: after ``TimeLimit`` it sets
+the same value there. SB3's ``Monitor`` and ``EvalCallback``, our evaluation, training, demo and
+benches all read ``info["is_success"]`` on an episode's last step.
 """
 
 from __future__ import annotations
