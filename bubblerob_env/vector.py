@@ -166,6 +166,27 @@ class BubbleRobVectorEnv(VectorEnv[dict[str, NDArray[Any]], NDArray[np.float32],
         dict[str, NDArray[Any]], NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_], dict
     ]:
         """Step every robot with its row of ``actions`` (shape ``(num_envs, 2)``)."""
+        obs, rewards, terminated, truncated, infos, finals = self.step_robots(actions)
+        info = collate_infos(infos)
+        if any(final is not None for final in finals):
+            self._add_finals(info, finals)
+        return obs, rewards, terminated, truncated, info
+
+    def step_robots(
+        self, actions: NDArray[np.float32]
+    ) -> tuple[
+        dict[str, NDArray[Any]],
+        NDArray[np.float64],
+        NDArray[np.bool_],
+        NDArray[np.bool_],
+        list[dict[str, Any]],
+        list[Step | None],
+    ]:
+        """:meth:`step`, with each robot's own ``info`` dict instead of the batched one.
+
+        Also returns, in ``SameStep`` mode, the last ``(obs, reward, terminated, truncated, info)``
+        of each robot whose episode ended in this step (else None).
+        """
         if self._needs_reset:
             raise RuntimeError("step() called before reset(): reset the vector env first")
         actions = np.asarray(actions)
@@ -184,15 +205,13 @@ class BubbleRobVectorEnv(VectorEnv[dict[str, NDArray[Any]], NDArray[np.float32],
         truncated_arr = np.array(truncated, dtype=bool)
         if not same_step:
             self._autoreset = terminated_arr | truncated_arr
-        info = collate_infos(list(infos))
-        if same_step and any(f is not None for f in finals):
-            self._add_finals(info, finals)
         return (
             self._batch_obs(list(obs_list)),
             np.array(rewards, dtype=np.float64),
             terminated_arr,
             truncated_arr,
-            info,
+            list(infos),
+            finals,
         )
 
     def _step_one(self, i: int, action: NDArray[Any], autoreset: bool) -> None:

@@ -45,7 +45,7 @@ EVAL_SEED_OFFSET = 1_000_000  # evaluation episodes use seeds training never see
 _NOT_ALGO_KWARGS = ("normalize", "n_timesteps", "n_envs", "env_kwargs", "policy")
 PROJECT_SETTINGS = {"vec_env": "--vec-env", "torch_threads": "--torch-threads"}
 """Settings of this project's trainer that rl_zoo3 does not know: command-line options, not YAML."""
-VEC_ENVS = ("dummy", "subproc")
+VEC_ENVS = ("dummy", "subproc", "batched")
 DEFAULT_VEC_ENV = "dummy"
 """Step the envs in the training process: on 2 cores, faster than subprocesses for this env."""
 DEFAULT_TORCH_THREADS = 1
@@ -150,7 +150,8 @@ def train(
     """Train and save; returns the path of the final model.
 
     ``overrides`` replace hyperparameters from the YAML (``--set key=value`` on the command line).
-    ``vec_env`` (``dummy`` or ``subproc``) says how the ``n_envs`` training envs are stepped.
+    ``vec_env`` (``dummy``, ``subproc`` or ``batched``) says how the ``n_envs`` training envs are
+    stepped; ``batched`` is :class:`bubblerob_env.sb3.BubbleRobSB3VecEnv`, same episodes.
     """
     import torch
     import yaml
@@ -182,13 +183,16 @@ def train(
     # trips of SubprocVecEnv cost more than stepping the envs in-process.
     vec_cls = SubprocVecEnv if count > 1 and vec_env == "subproc" else DummyVecEnv
     torch.set_num_threads(int(torch_threads))
-    envs = make_vec_env(
-        env_id,
-        n_envs=count,
-        seed=seed,
-        env_kwargs=env_kwargs,
-        vec_env_cls=vec_cls,
-    )
+    if vec_env == "batched":
+        envs = _batched_envs(env_id, count, seed, env_kwargs)
+    else:
+        envs = make_vec_env(
+            env_id,
+            n_envs=count,
+            seed=seed,
+            env_kwargs=env_kwargs,
+            vec_env_cls=vec_cls,
+        )
     eval_env = make_vec_env(
         env_id,
         n_envs=1,
@@ -239,6 +243,19 @@ def train(
     return final
 
 
+def _batched_envs(env_id: str, count: int, seed: int, env_kwargs: dict[str, Any]) -> Any:
+    """``--vec-env batched``: the native batch (threads), as ``make_vec_env`` would seed it."""
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    from bubblerob_env.sb3 import BubbleRobSB3VecEnv
+
+    if env_id != "BubbleRob-v0":
+        raise ValueError(f"--vec-env batched steps BubbleRob-v0 only, not {env_id!r}")
+    envs = BubbleRobSB3VecEnv(count, **env_kwargs)
+    envs.seed(seed)
+    return VecMonitor(envs)
+
+
 def _default_command(algo: str, env_id: str, out: Path) -> str:
     return shlex.join(["python", "-m", "train", "--algo", algo, "--env", env_id, "--out", str(out)])
 
@@ -284,7 +301,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--vec-env",
         choices=VEC_ENVS,
         default=DEFAULT_VEC_ENV,
-        help="step the envs in this process (dummy) or one subprocess each (subproc)",
+        help="step the envs in this process (dummy), one subprocess each (subproc), or as one "
+        "native batch on threads (batched; BubbleRob-v0 only)",
     )
     parser.add_argument(
         "--torch-threads", type=int, default=DEFAULT_TORCH_THREADS, help="torch's CPU threads"

@@ -1,0 +1,136 @@
+"""Stable-Baselines3 ``VecEnv`` over the native batch: ``BubbleRobSB3VecEnv(num_envs, **kwargs)``.
+
+A drop-in for ``make_vec_env("BubbleRob-v0", n_envs=N, seed=s)``: robot ``i`` seeded ``s + i``
+(``venv.seed(s)``), the same time limit (1000 steps unless ``max_episode_steps``), and SB3's
+conventions on an episode's last step: ``info["terminal_observation"]``,
+``info["TimeLimit.truncated"]`` and the env's ``info["is_success"]``; the returned observation is
+already the next episode's first (SB3 resets in the same step). Wrap it in SB3's ``VecMonitor``
+for episode returns and lengths (``python -m train --vec-env batched`` does). Needs
+``stable-baselines3`` (the ``train`` extra).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.vector import AutoresetMode
+from stable_baselines3.common.vec_env.base_vec_env import (
+    VecEnv,
+    VecEnvIndices,
+    VecEnvObs,
+    VecEnvStepReturn,
+)
+
+from bubblerob_env.vector import BubbleRobVectorEnv
+
+__all__ = ["BubbleRobSB3VecEnv"]
+
+
+class BubbleRobSB3VecEnv(VecEnv):
+    """``num_envs`` BubbleRobs for SB3, stepped by :class:`~.vector.BubbleRobVectorEnv`.
+
+    Args:
+        num_envs: Number of robots.
+        num_threads: Threads stepping them (default: the usable cores).
+        max_episode_steps: Time limit in steps, as ``gym.make``'s (default 1000).
+        **kwargs: Every argument of ``BubbleRobEnv``.
+    """
+
+    def __init__(
+        self,
+        num_envs: int,
+        *,
+        num_threads: int | None = None,
+        max_episode_steps: int | None = 1000,
+        **kwargs: Any,
+    ) -> None:
+        self.venv = BubbleRobVectorEnv(
+            num_envs,
+            num_threads=num_threads,
+            max_episode_steps=max_episode_steps,
+            autoreset_mode=AutoresetMode.SAME_STEP,
+            **kwargs,
+        )
+        first = self.venv.envs[0]
+        self.render_mode = first.render_mode
+        super().__init__(num_envs, first.observation_space, first.action_space)
+        self.metadata = self.venv.metadata
+        self._actions: np.ndarray | None = None
+
+    def reset(self) -> VecEnvObs:
+        """Reset every robot with the seeds given to :meth:`seed` (then unseeded)."""
+        options = self._options[0] if self._options and self._options[0] else None
+        obs, info = self.venv.reset(seed=list(self._seeds), options=options)
+        self.reset_infos = [
+            {k: info[k][i] for k in info if not k.startswith("_") and info[f"_{k}"][i]}
+            for i in range(self.num_envs)
+        ]
+        self._reset_seeds()
+        self._reset_options()
+        return obs
+
+    def step_async(self, actions: np.ndarray) -> None:
+        """Store the actions for :meth:`step_wait`."""
+        self._actions = actions
+
+    def step_wait(self) -> VecEnvStepReturn:
+        """Step every robot; ended episodes restart at once, as SB3 expects."""
+        assert self._actions is not None, "step_async first"
+        obs, rewards, terminated, truncated, infos, finals = self.venv.step_robots(
+            np.asarray(self._actions, dtype=np.float32)
+        )
+        for i, final in enumerate(finals):
+            if final is None:
+                infos[i]["TimeLimit.truncated"] = False  # as SB3's DummyVecEnv
+                continue
+            final_obs, _, final_terminated, final_truncated, final_info = final
+            infos[i] = {
+                **final_info,
+                "terminal_observation": final_obs,
+                "TimeLimit.truncated": final_truncated and not final_terminated,
+            }
+            self.reset_infos[i] = {}
+        return obs, rewards.astype(np.float32), terminated | truncated, infos
+
+    def close(self) -> None:
+        """Close the robots and the threads."""
+        self.venv.close()
+
+    def get_images(self) -> Sequence[np.ndarray | None]:
+        """Each robot's ``rgb_array`` frame."""
+        frames = self.venv.render()
+        return list(frames) if frames is not None else [None] * self.num_envs
+
+    def _targets(self, indices: VecEnvIndices) -> list[gym.Env[Any, Any]]:
+        return [self.venv.envs[i] for i in self._get_indices(indices)]
+
+    def _get_indices(self, indices: VecEnvIndices) -> Iterable[int]:
+        if indices is None:
+            return range(self.num_envs)
+        if isinstance(indices, int):
+            return [indices]
+        return indices
+
+    def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
+        """An attribute of each robot's env."""
+        return [getattr(env, attr_name) for env in self._targets(indices)]
+
+    def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
+        """Set an attribute of each robot's env."""
+        for env in self._targets(indices):
+            setattr(env, attr_name, value)
+
+    def env_method(
+        self, method_name: str, *method_args: Any, indices: VecEnvIndices = None, **kwargs: Any
+    ) -> list[Any]:
+        """Call a method of each robot's env."""
+        return [getattr(env, method_name)(*method_args, **kwargs) for env in self._targets(indices)]
+
+    def env_is_wrapped(
+        self, wrapper_class: type[gym.Wrapper[Any, Any, Any, Any]], indices: VecEnvIndices = None
+    ) -> list[bool]:
+        """No robot's env is wrapped."""
+        return [False for _ in self._targets(indices)]

@@ -1,0 +1,63 @@
+"""The SB3 adapter against SB3's own ``make_vec_env`` (``DummyVecEnv`` over ``gym.make``): same
+observations, rewards, dones and infos bit for bit, with SB3's terminal conventions."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+from stable_baselines3.common.env_checker import check_env  # noqa: E402
+from stable_baselines3.common.env_util import make_vec_env  # noqa: E402
+from stable_baselines3.common.vec_env import VecMonitor  # noqa: E402
+
+import bubblerob_env  # noqa: E402,F401
+from bubblerob_env.sb3 import BubbleRobSB3VecEnv  # noqa: E402
+
+
+def _same(a, b) -> bool:
+    if isinstance(a, dict):
+        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, str):
+        return a == b
+    return np.asarray(a).tobytes() == np.asarray(b, dtype=np.asarray(a).dtype).tobytes()
+
+
+@pytest.mark.parametrize("num_threads", [1, 2])
+def test_adapter_matches_make_vec_env(num_threads):
+    n, limit = 4, 30
+    ours = BubbleRobSB3VecEnv(n, num_threads=num_threads, max_episode_steps=limit)
+    theirs = make_vec_env("BubbleRob-v0", n_envs=n, seed=3, env_kwargs={"max_episode_steps": limit})
+    ours.seed(3)
+    assert _same(ours.reset(), theirs.reset())
+    actions = np.random.default_rng(0).uniform(-1, 1, size=(100, n, 2)).astype(np.float32)
+    actions[..., 0] = np.abs(actions[..., 0])
+    dones_seen = 0
+    for action in actions:
+        obs, rewards, dones, infos = ours.step(action)
+        obs_t, rewards_t, dones_t, infos_t = theirs.step(action)
+        assert _same(obs, obs_t) and _same(rewards, rewards_t) and _same(dones, dones_t)
+        for info, info_t in zip(infos, infos_t, strict=True):
+            info_t = {k: v for k, v in info_t.items() if k != "episode"}  # Monitor's
+            assert _same(info, info_t)
+        dones_seen += int(dones.sum())
+    assert dones_seen >= n * 3
+    ours.close()
+    theirs.close()
+
+
+def test_adapter_in_vec_monitor_reports_episodes():
+    envs = VecMonitor(BubbleRobSB3VecEnv(2, max_episode_steps=5))
+    envs.reset()
+    for _ in range(5):
+        _, _, dones, infos = envs.step(np.zeros((2, 2), np.float32))
+    assert dones.all() and all(info["episode"]["l"] == 5 for info in infos)
+    assert all(info["is_success"] and info["TimeLimit.truncated"] for info in infos)
+    assert envs.get_attr("arena_size") == [4.0, 4.0]
+    envs.close()
+
+
+def test_single_env_passes_sb3_check_env():
+    import gymnasium as gym
+
+    check_env(gym.make("BubbleRob-v0"), warn=True)
