@@ -6,8 +6,11 @@ Part 1 trains PPO with ``train/hyperparams/ppo.yml`` (seed 0) and evaluates the 
 policy on 20 held-out episodes every ``--eval-every`` steps; it reports the env steps and wall
 time at which the success rate (time limit reached without a collision) first reaches 90%.
 Part 2 measures SB3 PPO throughput (env steps/s including updates) with 1 and 2 envs, in-process
-(DummyVecEnv) and in subprocesses (SubprocVecEnv), beside the same PPO settings on Gymnasium's
-``HalfCheetah-v5`` measured in the same run as the anchor; the ratio column is relative to it.
+(DummyVecEnv) and in subprocesses (SubprocVecEnv), and 8 envs in-process and as the native batch
+(``bubblerob_env.sb3``, ``--vec-env batched`` for part 1: it gives the same episodes, so the same
+policy after the same steps, and only the wall time differs), beside the same PPO settings on
+Gymnasium's ``HalfCheetah-v5`` measured in the same run as the anchor; the ratio column is relative
+to it.
 """
 
 from __future__ import annotations
@@ -25,9 +28,10 @@ import torch
 from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.env_util import make_vec_env
-from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
+from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor, VecNormalize
 
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
+from bubblerob_env.sb3 import BubbleRobSB3VecEnv
 from train.train import _schedules, load_hyperparams
 
 ALGO_KEYS = (
@@ -84,12 +88,21 @@ class StopAtSuccess(BaseCallback):
         return True
 
 
-def time_to_success(max_steps: int, every: int, episodes: int) -> StopAtSuccess:
+def _training_envs(n_envs: int, vec_env: str) -> Any:
+    """``n_envs`` BubbleRobs seeded 0, 1, ...: SB3's DummyVecEnv, or the native batch."""
+    if vec_env == "batched":
+        envs = BubbleRobSB3VecEnv(n_envs)
+        envs.seed(0)
+        return VecMonitor(envs)
+    return make_vec_env("BubbleRob-v0", n_envs=n_envs, seed=0, vec_env_cls=DummyVecEnv)
+
+
+def time_to_success(
+    max_steps: int, every: int, episodes: int, vec_env: str = "dummy"
+) -> StopAtSuccess:
     config = load_hyperparams("ppo", "BubbleRob-v0")
     torch.set_num_threads(int(config.get("torch_threads", 1)))
-    envs: Any = make_vec_env(
-        "BubbleRob-v0", n_envs=int(config["n_envs"]), seed=0, vec_env_cls=DummyVecEnv
-    )
+    envs: Any = _training_envs(int(config["n_envs"]), vec_env)
     if config.get("normalize"):
         envs = VecNormalize(envs, gamma=float(config["gamma"]))
     kwargs = _schedules({k: config[k] for k in ALGO_KEYS if k in config})
@@ -99,10 +112,15 @@ def time_to_success(max_steps: int, every: int, episodes: int) -> StopAtSuccess:
     return callback
 
 
-def throughput(env_id: str, n_envs: int, vec_cls: type, steps: int, rollout: int) -> float:
+def throughput(env_id: str, n_envs: int, vec_cls: type | None, steps: int, rollout: int) -> float:
+    """PPO env steps/s including updates; ``vec_cls`` None: the native batch."""
     config = load_hyperparams("ppo", "BubbleRob-v0")
     policy = "MultiInputPolicy" if env_id.startswith("BubbleRob") else "MlpPolicy"
-    envs = make_vec_env(env_id, n_envs=n_envs, seed=0, vec_env_cls=vec_cls)
+    envs = (
+        _training_envs(n_envs, "batched")
+        if vec_cls is None
+        else make_vec_env(env_id, n_envs=n_envs, seed=0, vec_env_cls=vec_cls)
+    )
     n_steps = max(16, rollout // n_envs)  # the same samples per update for every row
     model = PPO(
         policy,
@@ -130,6 +148,12 @@ def main() -> int:
     parser.add_argument("--eval-episodes", type=int, default=20)
     parser.add_argument("--throughput-steps", type=int, default=16_384)
     parser.add_argument("--quick", action="store_true", help="smoke test: tiny budgets")
+    parser.add_argument(
+        "--vec-env",
+        choices=("dummy", "batched"),
+        default="dummy",
+        help="training envs of part 1: SB3's DummyVecEnv or the native batch (same episodes)",
+    )
     args = parser.parse_args()
     if args.quick:
         args.max_steps, args.eval_every, args.eval_episodes = 4096, 2048, 1
@@ -138,8 +162,8 @@ def main() -> int:
     rollout = 128 if args.quick else int(config["n_steps"]) * int(config["n_envs"])
     torch.set_num_threads(1)
     wall = time.perf_counter()
-    print("time to 90% success (shipped PPO config, seed 0):")
-    callback = time_to_success(args.max_steps, args.eval_every, args.eval_episodes)
+    print(f"time to 90% success (shipped PPO config, seed 0, {args.vec_env} envs):")
+    callback = time_to_success(args.max_steps, args.eval_every, args.eval_episodes, args.vec_env)
     rows = []
     for label, env_id, n_envs, vec_cls in (
         ("HalfCheetah-v5, 1 env (anchor)", "HalfCheetah-v5", 1, DummyVecEnv),
@@ -147,6 +171,7 @@ def main() -> int:
         ("BubbleRob-v0, 2 envs, DummyVecEnv", "BubbleRob-v0", 2, DummyVecEnv),
         ("BubbleRob-v0, 2 envs, SubprocVecEnv", "BubbleRob-v0", 2, SubprocVecEnv),
         ("BubbleRob-v0, 8 envs, DummyVecEnv", "BubbleRob-v0", 8, DummyVecEnv),
+        ("BubbleRob-v0, 8 envs, native batch", "BubbleRob-v0", 8, None),
     ):
         rows.append((label, throughput(env_id, n_envs, vec_cls, args.throughput_steps, rollout)))
     anchor = rows[0][1]
