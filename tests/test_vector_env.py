@@ -201,3 +201,19 @@ def test_collate_infos_masks_missing_keys():
     assert info["a"].tolist() == [1.5, 2.0] and info["_a"].all()
     assert info["s"].tolist() == ["x", ""] and info["_s"].tolist() == [True, False]
     assert info["v"].tolist() == [[0.0, 0.0], [1.0, 1.0]] and info["_v"].tolist() == [False, True]
+
+
+def test_readme_batched_env_example_runs():
+    import re
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    section = (root / "README.md").read_text().split("## Batched env", 1)[1].split("\n## ", 1)[0]
+    code = re.findall(r"```py\n(.*?)```", section, flags=re.DOTALL)[0]
+    result = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=300, check=False
+    )
+    assert result.returncode == 0, result.stderr
+    assert "laser batch (8, 360)" in result.stdout
