@@ -14,7 +14,7 @@ ROOT = Path(__file__).resolve().parents[1]
 @pytest.mark.parametrize(
     ("script", "expected_rows"),
     [
-        ("env_speed.py", ["laser 360, no camera", "floor: mj_step", "Ant-v5"]),
+        ("env_speed.py", ["laser 360, no camera", "engine floor:", "naive floor:", "Ant-v5"]),
         ("record_speed.py", ["mcap", "ros1", "sqlite3"]),
         ("train_speed.py", ["HalfCheetah-v5, 1 env (anchor)", "2 envs, SubprocVecEnv"]),
         ("soak.py", ["undetected penetration", "memory growth after warm-up", "PASSED"]),
