@@ -54,6 +54,7 @@ from typing import Any
 import gymnasium as gym
 import mujoco
 import numpy as np
+from vector_speed import SIZES, BatchBench, batch_label, env_speed_notes  # bench/ is on sys.path
 
 import bubblerob_env  # registers BubbleRob-v0 and picks MUJOCO_GL=egl without a display
 from bubblerob_env import names
@@ -269,6 +270,11 @@ def _rows(steps: int, seed: int) -> list[Row]:
         _env_row(ANT_LABEL, ANT_LABEL, steps, seed),
         _env_row("HalfCheetah-v5", "HalfCheetah-v5", steps, seed),
     ]
+    # The native batch: steps/s are robot-steps/s (bench/vector_speed.py).
+    rows += [
+        Row(batch_label(n), lambda n=n: BatchBench(n, steps, seed))
+        for n in (SIZES[:2] if steps < 200 else SIZES)
+    ]
     return rows
 
 
@@ -422,7 +428,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     measure(rows, args.steps, args.warmup, args.repeats)
     wall = time.perf_counter() - start
     lines = table(rows, args.markdown)
-    notes = targets(rows) + machine(args.steps, args.repeats, wall)
+    batch = {n: _rate(rows, batch_label(n)) for n in SIZES}
+    notes = targets(rows) + env_speed_notes(
+        _rate(rows, LASER_LABEL), batch, args.repeats, args.quick
+    )
+    notes += machine(args.steps, args.repeats, wall)
     prefix = "- " if args.markdown else ""
     print("\n".join(lines))
     print()

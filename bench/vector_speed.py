@@ -74,25 +74,93 @@ class Single:
 class Batch:
     """``num_envs`` robots from ``gym.make_vec(..., vectorization_mode="vector_entry_point")``."""
 
-    def __init__(self, num_envs: int, seed: int) -> None:
+    def __init__(self, num_envs: int, seed: int, steps: int | None = None) -> None:
         before = _rss_mb()
         self.envs: Any = gym.make_vec(
             "BubbleRob-v0", num_envs=num_envs, vectorization_mode="vector_entry_point"
         )
         self.envs.reset(seed=seed)
         rng = np.random.default_rng(seed)
-        self.actions = rng.uniform(-1, 1, (max(3, 4000 // num_envs), num_envs, 2)).astype(
-            np.float32
-        )
+        count = steps or max(3, 4000 // num_envs)
+        self.actions = rng.uniform(-1, 1, (count, num_envs, 2)).astype(np.float32)
         self.run(len(self.actions))  # warm-up, and memory after stepping
         gc.collect()
         self.mb_per_robot = (_rss_mb() - before) / num_envs
 
     def run(self, steps: int) -> float:
+        """Robot-steps/s over (at most) ``steps`` batch steps."""
+        actions = self.actions[:steps]
         start = time.perf_counter()
-        for action in self.actions[:steps]:
+        for action in actions:
             self.envs.step(action)
-        return steps * self.envs.num_envs / (time.perf_counter() - start)
+        return len(actions) * self.envs.num_envs / (time.perf_counter() - start)
+
+
+BATCH_LABEL = "BubbleRob-v0 vector_entry_point"
+
+
+class BatchBench:
+    """A row of ``bench/env_speed.py``: ``run(steps)`` is the time of ``steps`` robot-steps.
+
+    An N-robot batch steps ``max(1, steps // N)`` times; the time is scaled to ``steps``
+    robot-steps, so that env_speed's steps/s column reads robot-steps/s.
+    """
+
+    def __init__(self, num_envs: int, steps: int, seed: int) -> None:
+        self.batch = Batch(num_envs, seed, max(1, steps // num_envs))
+
+    def run(self, steps: int) -> float:
+        return steps / self.batch.run(max(1, steps // self.batch.envs.num_envs))
+
+    def close(self) -> None:
+        self.batch.envs.close()
+
+
+def batch_label(num_envs: int) -> str:
+    """env_speed's label of the N-robot row."""
+    return f"{BATCH_LABEL} N={num_envs}"
+
+
+def env_speed_notes(
+    single: float | None, rates: dict[int, float | None], repeats: int, quick: bool
+) -> list[str]:
+    """env_speed's lines for the batch: targets, and IR-SIM / IR-SIM-X measured here."""
+    found = {n: r for n, r in rates.items() if r}
+    others: list[Any] = []
+    if not quick:
+        others = [
+            irsim("BUBBLEROB_IRSIM_PATH", (), min(repeats, 2)),
+            irsim("BUBBLEROB_IRSIMX_PATH", tuple(sorted(found)), repeats),
+        ]
+    lines, irsimx = [], None
+    for other in others:
+        if isinstance(other, str):
+            lines.append(f"info: IR-SIM row {other}")
+            continue
+        batch = ", ".join(f"N={n} {r:.0f}" for n, r in other["batch"].items() if r)
+        lines.append(
+            f"info: {other['package']} {other['version']}: 1 env {other['single']:.0f} steps/s"
+            + (f"; its batch, robot-steps/s: {batch}" if batch else "")
+        )
+        irsimx = other if other["package"] == "irsim-x" else irsimx
+    at64 = found.get(64)
+    if at64 and single:
+        ok = at64 / single >= TARGET_X_SINGLE_AT_64
+        lines.append(
+            f"{'PASS' if ok else 'FAIL'}: batch N=64 {at64:.0f} robot-steps/s = "
+            f"{at64 / single:.2f}x the 360-ray env (target >= {TARGET_X_SINGLE_AT_64}x)"
+        )
+    if at64 and irsimx:
+        ok = at64 / irsimx["single"] >= TARGET_X_IRSIMX_SINGLE
+        lines.append(
+            f"{'PASS' if ok else 'FAIL'}: batch N=64 = {at64 / irsimx['single']:.2f}x irsim-x's "
+            f"single env (target >= {TARGET_X_IRSIMX_SINGLE}x)"
+        )
+        for n, rate in found.items():
+            theirs = irsimx["batch"].get(str(n))
+            if theirs:
+                lines.append(f"info: batch N={n} = {rate / theirs:.2f}x irsim-x's batch")
+    return lines
 
 
 def irsim(package_env: str, sizes: tuple[int, ...], repeats: int) -> dict[str, Any] | str:
@@ -108,6 +176,10 @@ def irsim(package_env: str, sizes: tuple[int, ...], repeats: int) -> dict[str, A
     if result.returncode != 0:
         return "failed: " + (result.stderr.strip().splitlines() or ["?"])[-1][:120]
     return dict(json.loads(result.stdout.strip().splitlines()[-1]))
+
+
+def _threads(batches: dict[int, Batch], n: int) -> str:
+    return str(batches[n].envs.num_threads) if n in batches else "default"
 
 
 def _ratio(a: float | None, b: float | None) -> str:
@@ -128,7 +200,7 @@ def report(
     for n, rate in rates.items():
         x_batch = (irsimx["batch"].get(str(n)) if irsimx else None) or None
         lines.append(
-            f"| BubbleRob-v0 vector_entry_point N={n} ({batches[n].envs.num_threads} threads) | "
+            f"| {batch_label(n)} ({_threads(batches, n)} threads) | "
             f"{rate:.0f} | {rate / single:.2f} | {_ratio(rate, x_single)} | "
             f"{_ratio(rate, x_batch)} |"
         )
