@@ -1,0 +1,369 @@
+"""External ROS 2 nodes for the live tests: run with .venv-ros2's python (real rclpy, Jazzy).
+
+Written as a ROS 2 user writes them: ``rclpy`` subscriptions and publishers with the message
+classes, ``qos_profile_sensor_data`` for sensors, ``use_sim_time`` for the simulated clock. Each
+subcommand prints one JSON line on stdout. ``tutorialloop`` is the tutorial's ``rosBubbleRob2``:
+forward; for a while after ``sensorTrigger``, back up while turning.
+"""
+
+import argparse
+import json
+import math
+import sys
+import threading
+import time
+
+import rclpy
+from geometry_msgs.msg import Twist
+from nav_msgs.msg import Odometry
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import CameraInfo, Image, LaserScan, Range
+from std_msgs.msg import Bool, Float32, Float64MultiArray, Int32, String
+from tf2_msgs.msg import TFMessage
+
+LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+SENSOR_TYPES = (LaserScan, Range, Image, CameraInfo)
+
+
+class Counter:
+    """Messages of one topic: count, latest, all (optional)."""
+
+    def __init__(self, node, topic, cls, keep=False, qos=None):
+        self.cond = threading.Condition()
+        self.topic = topic
+        self.count = 0
+        self.latest = None
+        self.all = [] if keep else None
+        if qos is None:
+            qos = qos_profile_sensor_data if cls in SENSOR_TYPES else 100
+        self.sub = node.create_subscription(cls, topic, self._cb, qos)
+
+    def _cb(self, msg):
+        with self.cond:
+            self.count += 1
+            self.latest = msg
+            if self.all is not None:
+                self.all.append(msg)
+            self.cond.notify_all()
+
+    def wait(self, count, timeout=10.0):
+        end = time.monotonic() + timeout
+        with self.cond:
+            while self.count < count:
+                left = end - time.monotonic()
+                if left <= 0:
+                    raise SystemExit(
+                        f"timeout waiting for message {count} on {self.topic} (have {self.count})"
+                    )
+                self.cond.wait(left)
+            return self.latest
+
+
+def wait_until(predicate, timeout, what):
+    end = time.monotonic() + timeout
+    while not predicate():
+        if time.monotonic() > end:
+            raise SystemExit(f"timeout: {what}")
+        time.sleep(0.01)
+
+
+def publisher(node, topic, cls, depth=100, latched=False, timeout=10.0):
+    """A publisher, once the node's subscription has matched it."""
+    pub = node.create_publisher(cls, topic, LATCHED if latched else depth)
+    wait_until(lambda: pub.get_subscription_count() > 0, timeout, f"nobody subscribed {topic}")
+    return pub
+
+
+def matched(node, counter, timeout=10.0):
+    """Until ``counter``'s topic has a publisher (and discovery has settled)."""
+    wait_until(lambda: node.count_publishers(counter.topic) > 0, timeout, counter.topic)
+    time.sleep(0.3)
+
+
+def ns(args, name):
+    return (args.ns.rstrip("/") + "/" + name) if args.ns else "/" + name
+
+
+def stamp_ns(t):
+    return t.sec * 1_000_000_000 + t.nanosec
+
+
+def odom_dict(msg):
+    p, q, t = msg.pose.pose.position, msg.pose.pose.orientation, msg.twist.twist
+    yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+    return {
+        "x": p.x,
+        "y": p.y,
+        "yaw": yaw,
+        "w": q.w,
+        "vx": t.linear.x,
+        "wz": t.angular.z,
+        "frame_id": msg.header.frame_id,
+        "child_frame_id": msg.child_frame_id,
+        "stamp": stamp_ns(msg.header.stamp),
+    }
+
+
+def qos_of(node, topic):
+    infos = node.get_publishers_info_by_topic(topic)
+    return [[i.qos_profile.reliability.name, i.qos_profile.durability.name] for i in infos]
+
+
+def cmd_echo(node, args):
+    """One message of each sensor topic, as ``ros2 topic echo`` would show them; QoS; sim time."""
+    out = {}
+    scan = Counter(node, ns(args, "scan"), LaserScan)
+    odom = Counter(node, ns(args, "odom"), Odometry)
+    clock = Counter(node, "/clock", Clock)
+    tf = Counter(node, "/tf", TFMessage)
+    static = Counter(node, "/tf_static", TFMessage, keep=True, qos=LATCHED)
+    cams = [Counter(node, ns(args, "camera/image_raw"), Image)] if args.camera else []
+    m = scan.wait(1)
+    out["scan"] = {
+        "frame_id": m.header.frame_id,
+        "ranges": len(m.ranges),
+        "range_max": m.range_max,
+        "angle_increment": m.angle_increment,
+    }
+    out["odom"] = odom_dict(odom.wait(1))
+    m = tf.wait(1)
+    out["tf"] = [[t.header.frame_id, t.child_frame_id] for t in m.transforms]
+    static.wait(1)
+    out["tf_static"] = sorted(
+        [t.header.frame_id, t.child_frame_id] for msg in static.all for t in msg.transforms
+    )
+    if cams:
+        m = cams[0].wait(1)
+        out["image"] = {"encoding": m.encoding, "step": m.step, "width": m.width}
+    # use_sim_time: the node's clock follows /clock
+    clock.wait(clock.count + 2)
+    time.sleep(0.2)
+    with clock.cond:
+        last = stamp_ns(clock.latest.clock)
+        now = node.get_clock().now().nanoseconds
+    out["clock"] = last
+    out["sim_now"] = now
+    out["clock_type"] = node.get_clock().clock_type.name
+    out["qos"] = {
+        t: qos_of(node, t)
+        for t in (ns(args, "scan"), ns(args, "odom"), "/tf", "/tf_static", "/clock")
+    }
+    # a subscription with the default (reliable) QoS does not match a sensor-data publisher
+    reliable = Counter(node, ns(args, "scan"), LaserScan, qos=10)
+    time.sleep(1.0)
+    out["reliable_scan"] = reliable.count
+    return out
+
+
+def cmd_odom(node, args):
+    return odom_dict(Counter(node, ns(args, "odom"), Odometry).wait(1))
+
+
+def cmd_count(node, args):
+    """How many messages each topic gets in ``--seconds``."""
+    kinds = {"scan": LaserScan, "image_raw": Image, "camera_info": CameraInfo, "odom": Odometry}
+    counters = {t: Counter(node, t, kinds[t.rsplit("/", 1)[-1]]) for t in args.topics}
+    for c in counters.values():
+        matched(node, c)
+    start = {t: c.count for t, c in counters.items()}
+    time.sleep(args.seconds)
+    return {t: c.count - start[t] for t, c in counters.items()}
+
+
+def cmd_pub(node, args):
+    kinds = {
+        "bool": (Bool, lambda v: Bool(data=v == "true")),
+        "float32": (Float32, lambda v: Float32(data=float(v))),
+        "string": (String, lambda v: String(data=v)),
+        "twist": (Twist, lambda v: twist(*map(float, v.split(",")))),
+    }
+    if args.kind == "badtwist":  # 8 bytes of CDR where a Twist has 52: published as raw bytes
+        cls, msg = Twist, b"\x00\x01\x00\x00" + b"\x00" * 4
+    else:
+        cls, make = kinds[args.kind]
+        msg = make(args.value)
+    pub = node.create_publisher(cls, args.topic, 10)
+    if args.kind == "string":  # DDS refuses the mismatched type: nobody ever subscribes
+        time.sleep(args.linger)
+        return {"published": args.topic, "subscribers": pub.get_subscription_count()}
+    wait_until(lambda: pub.get_subscription_count() > 0, 10.0, f"nobody subscribed {args.topic}")
+    pub.publish(msg)
+    time.sleep(args.linger)
+    return {"published": args.topic, "subscribers": pub.get_subscription_count()}
+
+
+def twist(v, w):
+    msg = Twist()
+    msg.linear.x, msg.angular.z = v, w
+    return msg
+
+
+def cmd_drive(node, args):
+    """Publish a twist on cmd_vel at 20 Hz for ``--seconds``; odometry then and ``--idle`` later."""
+    odom = Counter(node, ns(args, "odom"), Odometry)
+    pub = publisher(node, ns(args, "cmd_vel"), Twist, depth=10)
+    end = time.monotonic() + args.seconds
+    while time.monotonic() < end:
+        pub.publish(twist(args.linear, args.angular))
+        time.sleep(0.05)
+    result = {"moving": odom_dict(odom.wait(1))}
+    if args.idle:
+        time.sleep(args.idle)
+        result["idle"] = odom_dict(odom.latest)
+    return result
+
+
+def cmd_sync(node, args):
+    """Trigger one step, then ``n`` more; report /clock before and after."""
+    trigger = publisher(node, ns(args, "triggerNextStep"), Bool)
+    done = Counter(node, ns(args, "simulationStepDone"), Bool)
+    clock = Counter(node, "/clock", Clock)
+    matched(node, done)
+    matched(node, clock)
+    trigger.publish(Bool(data=True))
+    done.wait(1)
+    t0 = stamp_ns(clock.wait(1).clock)
+    c0 = clock.count
+    for _ in range(args.n):
+        trigger.publish(Bool(data=True))
+    done.wait(1 + args.n, timeout=20)
+    clock.wait(c0 + args.n)
+    t1 = stamp_ns(clock.latest.clock)
+    time.sleep(args.settle)
+    return {"t0": t0, "t1": t1, "done": done.count - 1, "clocks": clock.count - c0}
+
+
+def cmd_states(node, args):
+    """pause, start, stop, start: the simulationState after each, and /clock while paused."""
+    state = Counter(node, ns(args, "simulationState"), Int32, keep=True, qos=LATCHED)
+    clock = Counter(node, "/clock", Clock)
+    pubs = {
+        e: publisher(node, ns(args, f"{e}Simulation"), Bool) for e in ("start", "pause", "stop")
+    }
+    state.wait(1)
+    matched(node, clock)
+    seen = [state.latest.data]
+    paused_clocks = None
+    for event in ("pause", "start", "stop", "start"):
+        before = state.count
+        pubs[event].publish(Bool(data=True))
+        state.wait(before + 1)
+        seen.append(state.latest.data)
+        if event == "pause":
+            time.sleep(0.2)
+            c = clock.count
+            time.sleep(args.pause_seconds)
+            paused_clocks = clock.count - c
+    time.sleep(0.5)
+    return {"states": seen, "paused_clocks": paused_clocks, "clocks": clock.count}
+
+
+def cmd_topics(node, args):
+    time.sleep(args.seconds)
+    return sorted(name for name, _ in node.get_topic_names_and_types())
+
+
+def cmd_tutorialloop(node, args):
+    """rosBubbleRob2 in sync mode: forward; after sensorTrigger back up turning for a while."""
+    trig = Counter(node, ns(args, "sensorTrigger"), Bool)
+    done = Counter(node, ns(args, "simulationStepDone"), Bool)
+    term = Counter(node, ns(args, "terminated"), Bool, keep=True)
+    odom = Counter(node, ns(args, "odom"), Odometry, keep=True)
+    action = Counter(node, ns(args, "bubblerob/action"), Float64MultiArray, keep=True)
+    left = publisher(node, ns(args, "leftMotorSpeed"), Float32)
+    right = publisher(node, ns(args, "rightMotorSpeed"), Float32)
+    trigger = publisher(node, ns(args, "triggerNextStep"), Bool)
+    start = publisher(node, ns(args, "startSimulation"), Bool)
+    for c in (trig, done, term, odom, action):
+        matched(node, c)
+    start.publish(Bool(data=True))
+    trig.wait(1)
+    back_steps, command, triggers = 0, None, 0
+    for k in range(args.steps):
+        if trig.latest.data:
+            back_steps = args.back_steps
+            triggers += 1
+        if back_steps > 0:
+            wanted = (-args.speed / 2, -args.speed / 4)
+            back_steps -= 1
+        else:
+            wanted = (args.forward, args.forward)
+        left.publish(Float32(data=wanted[0]))  # every step, as the tutorial's node does (and
+        right.publish(Float32(data=wanted[1]))  # the node's watchdog wants)
+        if wanted != command:
+            command = wanted
+            time.sleep(0.005)  # commands and trigger travel on different DDS writers
+        trigger.publish(Bool(data=True))
+        done.wait(k + 1)
+        trig.wait(k + 2)
+    time.sleep(args.settle)
+    return {
+        "steps": done.count,
+        "collisions": sum(m.data for m in term.all),
+        "triggers": triggers,
+        "actions": [list(m.data) for m in action.all],
+        "odom": [[m.pose.pose.position.x, m.pose.pose.position.y] for m in odom.all],
+        "sim_time": stamp_ns(odom.all[-1].header.stamp) - stamp_ns(odom.all[0].header.stamp),
+    }
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--ns", default="")
+    sub = parser.add_subparsers(dest="cmd", required=True)
+    p = sub.add_parser("echo")
+    p.add_argument("--camera", action="store_true")
+    sub.add_parser("odom")
+    p = sub.add_parser("count")
+    p.add_argument("topics", nargs="+")
+    p.add_argument("--seconds", type=float, default=1.0)
+    p = sub.add_parser("pub")
+    p.add_argument("topic")
+    p.add_argument("kind")
+    p.add_argument("value", nargs="?", default="")
+    p.add_argument("--linger", type=float, default=0.5)
+    p = sub.add_parser("drive")
+    p.add_argument("--linear", type=float, default=0.0)
+    p.add_argument("--angular", type=float, default=0.0)
+    p.add_argument("--seconds", type=float, default=1.0)
+    p.add_argument("--idle", type=float, default=0.0)
+    p = sub.add_parser("sync")
+    p.add_argument("--n", type=int, default=20)
+    p.add_argument("--settle", type=float, default=0.5)
+    p = sub.add_parser("states")
+    p.add_argument("--pause-seconds", type=float, default=0.5)
+    p = sub.add_parser("topics")
+    p.add_argument("--seconds", type=float, default=2.0)
+    p = sub.add_parser("tutorialloop")
+    p.add_argument("--steps", type=int, default=600)
+    p.add_argument("--forward", type=float, default=8.0)
+    p.add_argument("--speed", type=float, default=10.0)
+    p.add_argument("--back-steps", type=int, default=30)
+    p.add_argument("--settle", type=float, default=1.0)
+    args = parser.parse_args()
+    rclpy.init()
+    node = Node(
+        "live_test_client",
+        parameter_overrides=[Parameter("use_sim_time", Parameter.Type.BOOL, True)],
+    )
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    spinner = threading.Thread(target=executor.spin, daemon=True)
+    spinner.start()
+    try:
+        result = globals()["cmd_" + args.cmd](node, args)
+    finally:
+        executor.shutdown()
+        spinner.join(5.0)
+        node.destroy_node()
+        rclpy.try_shutdown()
+    print(json.dumps(result), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

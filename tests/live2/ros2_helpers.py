@@ -1,0 +1,152 @@
+"""Helpers for the live ROS 2 tests (imported as a plain module: tests/live2 is on sys.path).
+
+The node and the probe are subprocesses of ``.venv-ros2``'s python: ROS 1 and ROS 2 message
+packages share module names, so rclpy lives in a virtualenv of its own (README's set-up makes it).
+Every process gets ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and this test session's own
+``ROS_DOMAIN_ID``: no discovery traffic leaves the loopback, and other sessions stay apart.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parents[1]
+CLIENT = HERE / "ros2_client.py"
+ROS2_PYTHON = Path(os.environ.get("BUBBLEROB_ROS2_PYTHON", ROOT / ".venv-ros2" / "bin" / "python"))
+SETUP = (
+    "python3 -m venv .venv-ros2 && .venv-ros2/bin/pip install -e '.[ros2]' && "
+    ".venv-ros2/bin/python -m bubblerob_env.ros.live.ros2_msgs"
+)
+DOMAIN_ID = str(1 + os.getpid() % 100)
+"""This session's DDS domain (1..100): concurrent test sessions on one machine stay apart."""
+
+
+def missing_ros2() -> str | None:
+    """Why the ROS 2 tests cannot run here, or ``None``."""
+    if not ROS2_PYTHON.exists():
+        return f"no {ROS2_PYTHON} (README's set-up makes it: {SETUP})"
+    probe = subprocess.run(
+        [str(ROS2_PYTHON), "-c", "import rclpy, tf2_msgs.msg, nav_msgs.msg, bubblerob_env"],
+        env=ros2_env(),
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=120,
+    )
+    if probe.returncode != 0:
+        return f"{ROS2_PYTHON} lacks rclpy, tf2_msgs or bubblerob ({probe.stderr[-300:]}): {SETUP}"
+    return None
+
+
+def ros2_env(**extra: str) -> dict[str, str]:
+    """The environment of every ROS 2 process of these tests."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("ROS_", "_ROS_", "RMW_"))}
+    for key in ("PYTHONPATH", "VIRTUAL_ENV", "AMENT_PREFIX_PATH", "LD_LIBRARY_PATH"):
+        env.pop(key, None)
+    env.update(
+        ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+        ROS_DOMAIN_ID=DOMAIN_ID,
+        PYTHONUNBUFFERED="1",
+        RCUTILS_LOGGING_BUFFERED_STREAM="0",
+    )
+    env.update(extra)
+    return env
+
+
+_SKIP: list[str | None] = []
+
+
+def skip_reason() -> str | None:
+    if not _SKIP:
+        _SKIP.append(missing_ros2())
+    return _SKIP[0]
+
+
+def require_ros2() -> None:
+    reason = skip_reason()
+    if reason is not None:
+        pytest.skip(reason)
+
+
+def client(*args: str, timeout: float = 60.0) -> Any:
+    """Run a ``ros2_client.py`` subcommand; its JSON result."""
+    result = subprocess.run(
+        [str(ROS2_PYTHON), str(CLIENT), *args],
+        env=ros2_env(),
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        check=False,
+    )
+    assert result.returncode == 0, f"client {args} failed:\n{result.stdout}\n{result.stderr}"
+    return json.loads(result.stdout.strip().splitlines()[-1])
+
+
+def stop(proc: subprocess.Popen[Any], sig: int = signal.SIGINT, timeout: float = 10.0) -> None:
+    """Stop a process we started: ``sig``, then SIGKILL after ``timeout``."""
+    if proc.poll() is None:
+        proc.send_signal(sig)
+        try:
+            proc.wait(timeout)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(5)
+
+
+class Node:
+    """A ``bubblerob node --ros 2`` subprocess; stdout/stderr collected by threads."""
+
+    def __init__(self, args: list[str], ready_timeout: float = 90.0) -> None:
+        self.args = args
+        self.proc = subprocess.Popen(
+            [str(ROS2_PYTHON), "-m", "bubblerob_env.cli", "node", "--ros", "2", *args],
+            env=ros2_env(),
+            cwd=ROOT,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        self.out: list[str] = []
+        self.err: list[str] = []
+        self._ready = threading.Event()
+        threading.Thread(target=self._read, args=(self.proc.stdout, self.out), daemon=True).start()
+        threading.Thread(target=self._read, args=(self.proc.stderr, self.err), daemon=True).start()
+        if not self._ready.wait(ready_timeout) or self.proc.poll() is not None:
+            self.stop()
+            raise AssertionError(f"node {args} did not start:\n{self.output}")
+
+    def _read(self, stream: Any, into: list[str]) -> None:
+        for line in stream:
+            into.append(line)
+            if "ready" in line:
+                self._ready.set()
+
+    @property
+    def output(self) -> str:
+        return "".join(self.out) + "".join(self.err)
+
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def stop(self) -> int:
+        stop(self.proc, signal.SIGTERM)
+        return int(self.proc.returncode)
+
+
+def wait_for(predicate: Any, timeout: float, interval: float = 0.05) -> bool:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if predicate():
+            return True
+        time.sleep(interval)
+    return bool(predicate())
