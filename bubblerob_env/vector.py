@@ -273,7 +273,7 @@ class BubbleRobVectorEnv(VectorEnv[dict[str, NDArray[Any]], NDArray[np.float32],
             future.result()
 
     def _batch_obs(self, obs_list: list[dict[str, NDArray[Any]]]) -> dict[str, NDArray[Any]]:
-        return {key: np.stack([obs[key] for obs in obs_list]) for key in obs_list[0]}
+        return {key: np.array([obs[key] for obs in obs_list]) for key in obs_list[0]}
 
     def render(self) -> tuple[Any, ...] | None:
         """Each robot's frame (``rgb_array``), or update their windows (``human``)."""
@@ -297,22 +297,23 @@ def collate_infos(infos: list[dict[str, Any]]) -> dict[str, Any]:
     """
     out: dict[str, Any] = {}
     n = len(infos)
-    keys = dict.fromkeys(key for info in infos for key in info)
-    for key in keys:
-        present = [key in info for info in infos]
-        values = [info[key] for info in infos if key in info]
-        sample = values[0]
-        if all(present):
-            column: Any = values
-        elif isinstance(sample, np.ndarray):
-            column = [info.get(key, np.zeros_like(sample)) for info in infos]
+    everywhere = set(infos[0]).intersection(*infos[1:]) if n else set()
+    all_true = np.ones(n, dtype=bool)
+    for key in dict.fromkeys(key for info in infos for key in info):
+        if key in everywhere:  # the common case: one pass, no defaults
+            column: list[Any] = [info[key] for info in infos]
+            present = all_true.copy()
         else:
-            column = [info.get(key, type(sample)()) for info in infos]
+            sample = next(info[key] for info in infos if key in info)
+            default = np.zeros_like(sample) if isinstance(sample, np.ndarray) else type(sample)()
+            column = [info.get(key, default) for info in infos]
+            present = np.array([key in info for info in infos], dtype=bool)
+        sample = column[0]
         if isinstance(sample, np.ndarray):
-            out[key] = np.stack(column)
+            out[key] = np.array(column)  # stacks equal shapes, faster than np.stack
         elif isinstance(sample, str):
             out[key] = np.array(column, dtype=object)
         else:
             out[key] = np.array(column)
-        out[f"_{key}"] = np.array(present, dtype=bool) if n else np.zeros(0, bool)
+        out[f"_{key}"] = present
     return out
