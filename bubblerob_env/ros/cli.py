@@ -6,6 +6,7 @@ import argparse
 import json
 import shlex
 import sys
+from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
@@ -48,6 +49,11 @@ def add_subcommands(subparsers: Any) -> None:
     record.add_argument("--namespace", default="", help="prefix for the robot's topics")
     record.add_argument("--per-episode", action="store_true", help="one bag per episode")
     record.add_argument("--overwrite", action="store_true", help="replace an existing bag")
+    record.add_argument(
+        "--start-time",
+        default=None,
+        help="stamp of the first frame: Unix seconds or an ISO 8601 date (default: now)",
+    )
     record.add_argument("--no-progress", action="store_true", help="no progress bar")
     record.add_argument("--out", type=Path, required=True, help="directory for the bag")
     record.set_defaults(handler=_record)
@@ -107,6 +113,7 @@ def _record(args: argparse.Namespace) -> int:
             overwrite=args.overwrite,
             metadata={"policy": args.policy, "command": shlex.join(["bubblerob", *sys.argv[1:]])},
             per_episode=args.per_episode,
+            start_time=args.start_time,
         )
     except (OSError, ValueError) as error:
         env.close()
@@ -149,7 +156,7 @@ def _info(args: argparse.Namespace) -> int:
     print(f"bag:       {summary.path}")
     print(f"storage:   {summary.storage}")
     print(f"duration:  {summary.duration_s:.3f} s (simulated)")
-    print(f"start/end: {summary.start_ns / 1e9:.3f} s / {summary.end_ns / 1e9:.3f} s")
+    print(f"start/end: {_utc(summary.start_ns)} / {_utc(summary.end_ns)}")
     print(f"messages:  {summary.message_count}")
     width = max((len(t.name) for t in summary.topics), default=5)
     print("topics:")
@@ -159,12 +166,19 @@ def _info(args: argparse.Namespace) -> int:
     print(f"episodes:  {len(summary.episodes)}{where}")
     for meta in summary.episodes:
         kwargs = json.dumps(meta.get("env_kwargs") or {}, sort_keys=True)
+        offset = (meta["start_time_ns"] - summary.start_ns) / 1e9
         print(
-            f"  #{meta['episode']}: start {meta['start_time_ns'] / 1e9:.3f} s, "
+            f"  #{meta['episode']}: start +{offset:.3f} s, "
             f"seed {meta.get('seed')}, policy {meta.get('policy', '-')}, "
             f"env {meta.get('env_id')} {kwargs}, distro {meta.get('distro')}"
         )
     return 0
+
+
+def _utc(ns: int) -> str:
+    """A stamp as a UTC date with milliseconds (and its Unix seconds)."""
+    date = datetime.fromtimestamp(ns // 10**9, timezone.utc).strftime("%Y-%m-%d %H:%M:%S")
+    return f"{date}.{ns % 10**9 // 10**6:03d} UTC ({ns / 1e9:.3f} s)"
 
 
 def _replay(args: argparse.Namespace) -> int:

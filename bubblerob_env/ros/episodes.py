@@ -11,7 +11,10 @@ run and a recording of the same seeds and actions carry the same stamps.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Mapping
+from datetime import datetime, timezone
+from decimal import Decimal, InvalidOperation
 from typing import Any, SupportsFloat
 
 import gymnasium as gym
@@ -20,7 +23,44 @@ from numpy.typing import NDArray
 
 from bubblerob_env.ros.bags.fanout import MessageFanout
 
-__all__ = ["RESERVED_KEYS", "EpisodeStream", "env_metadata", "jsonable"]
+__all__ = [
+    "MAX_START_NS",
+    "RESERVED_KEYS",
+    "EpisodeStream",
+    "env_metadata",
+    "jsonable",
+    "start_time_ns",
+]
+
+MAX_START_NS = 2**31 * 10**9
+"""Start times must be below 2038-01-19: ROS 2 stamps hold seconds in an int32, and a recording
+needs room to run (ROS 1 holds a uint32)."""
+
+
+def start_time_ns(start_time: float | str | None = None) -> int:
+    """A recording's epoch in nanoseconds since the Unix epoch.
+
+    ``None`` means now (the wall clock); else Unix seconds (a number, or its text, exact to the
+    nanosecond) or an ISO 8601 date (naive dates are UTC).
+    """
+    if start_time is None:
+        return time.time_ns()
+    try:
+        nanoseconds = int(Decimal(str(start_time)) * 10**9)
+    except (InvalidOperation, ValueError, OverflowError):
+        try:
+            moment = datetime.fromisoformat(str(start_time).replace("Z", "+00:00"))
+        except ValueError:
+            raise ValueError(
+                f"start time {start_time!r} is neither Unix seconds nor an ISO 8601 date"
+            ) from None
+        if moment.tzinfo is None:
+            moment = moment.replace(tzinfo=timezone.utc)
+        nanoseconds = int(moment.timestamp()) * 10**9 + moment.microsecond * 1000
+    if not 0 < nanoseconds < MAX_START_NS:
+        raise ValueError(f"start time {start_time!r} is outside 1970-01-01 .. 2038-01-19 (UTC)")
+    return nanoseconds
+
 
 RESERVED_KEYS = frozenset({
     "episode", "seed", "rng_state", "options", "env_id", "env_kwargs", "max_episode_steps",
@@ -68,11 +108,17 @@ class EpisodeStream:
     Args:
         fanout: Where the frames and records go.
         dt_ns: Simulated nanoseconds per env step (the gap before an episode's first frame).
+        epoch_ns: Stamp of the first frame (nanoseconds since the Unix epoch): simulated time
+            runs from it. ROS 1 tools drop messages stamped 0 ("invalid time"), so recorders
+            and the live node pass a real time (:func:`start_time_ns`).
     """
 
-    def __init__(self, fanout: MessageFanout, dt_ns: int) -> None:
+    def __init__(self, fanout: MessageFanout, dt_ns: int, epoch_ns: int = 0) -> None:
+        if not 0 <= epoch_ns < MAX_START_NS:  # 0: time from zero, for tests of the layers
+            raise ValueError(f"start time {epoch_ns} ns is outside 0 .. {MAX_START_NS} ns")
         self.fanout = fanout
         self.dt_ns = dt_ns
+        self.epoch_ns = epoch_ns
         self.seq = 0
         """Sequence number of the next frame (never restarts)."""
         self.episodes = 0
@@ -82,12 +128,12 @@ class EpisodeStream:
         self._offset_ns = 0
 
     def restart(self) -> None:
-        """Start again at time 0 with ``/tf_static`` (a new bag); sequence numbers go on."""
+        """Start again at the epoch with ``/tf_static`` (a new bag); sequence numbers go on."""
         self.last_ns = None
 
     def next_start(self) -> int:
         """The stamp the next episode's first frame will get."""
-        return 0 if self.last_ns is None else self.last_ns + self.dt_ns
+        return self.epoch_ns if self.last_ns is None else self.last_ns + self.dt_ns
 
     def reset(
         self,

@@ -1,8 +1,9 @@
 """``RosBagRecorder``: a Gymnasium wrapper that records every step of every episode into a bag.
 
-Timestamps are simulated time: an episode's frames are stamped ``start + info["sim_time"]``, and
-each episode starts one control step after the previous one ended, so that time increases strictly
-across the episodes of a bag. With ``per_episode=True`` each episode gets its own bag instead.
+Timestamps are simulated time from a real epoch (the recorder's wall-clock start by default, or
+``start_time``): an episode's frames are stamped ``start + info["sim_time"]``, and each episode
+starts one control step after the previous one ended, so that time increases strictly across the
+episodes of a bag. With ``per_episode=True`` each episode gets its own bag instead.
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from bubblerob_env.ros.bags.sinks import (
     open_bag,
     remove_bag,
 )
-from bubblerob_env.ros.episodes import RESERVED_KEYS, EpisodeStream, jsonable
+from bubblerob_env.ros.episodes import RESERVED_KEYS, EpisodeStream, jsonable, start_time_ns
 from bubblerob_env.ros.messages.topics import Topics
 from bubblerob_env.specs import EnvSpecs
 
@@ -43,6 +44,7 @@ are under ``bubblerob.recording``; every episode's full metadata is on the episo
 RECORDING_KEY = "bubblerob.recording"
 _SUMMARY_KEYS = ("episode", "seed", "start_time_ns")
 _SHARED_KEYS = ("episode", "seed", "rng_state", "options", "start_time_ns", "first_seq")
+
 
 class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
     """Record every ``reset`` and ``step`` of a BubbleRob env into a ROS bag.
@@ -69,6 +71,7 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
         overwrite: bool = False,
         metadata: Mapping[str, Any] | None = None,
         per_episode: bool = False,
+        start_time: float | str | None = None,
     ) -> None:
         """Wrap ``env`` and create the bag.
 
@@ -84,6 +87,9 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
             overwrite: Replace existing bags instead of raising ``FileExistsError``.
             metadata: JSON-able facts stored with every episode, e.g. ``{"policy": "reactive"}``.
             per_episode: One bag per episode instead of one for all.
+            start_time: Stamp of the first frame, Unix seconds or an ISO 8601 date (see
+                :func:`~bubblerob_env.ros.episodes.start_time_ns`); default: now. Simulated
+                time runs from it; with ``per_episode`` every bag starts at it.
         """
         super().__init__(env)
         if format not in FORMATS:
@@ -106,7 +112,8 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
         self._fanout.serializer(self.distro)  # compile now: errors before the first step
         self._episodes: list[dict[str, Any]] = []
         self._episode_count = 0
-        self._stream = EpisodeStream(self._fanout, self._dt_ns)
+        self.start_time_ns = start_time_ns(start_time)
+        self._stream = EpisodeStream(self._fanout, self._dt_ns, self.start_time_ns)
         self._sink: BagSink | None = None
         self._closed = False
         self._bag_paths: list[Path] = []
@@ -133,7 +140,7 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
         self._fanout.add_sink(sink)
         self._sink = sink
         self._episodes = []
-        self._stream.restart()  # each bag starts at time 0
+        self._stream.restart()  # each bag starts at the start time
 
     def _close_bag(self) -> None:
         sink, self._sink = self._sink, None

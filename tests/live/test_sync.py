@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import signal
 import subprocess
+import time
 from pathlib import Path
 from typing import Any
 
@@ -81,9 +82,13 @@ def test_tutorial_loop_drives_30_s_and_rosbag_record_matches_the_recorder(
     used = {tuple(a) for a in np.round(actions.astype(np.float64), 6).tolist()}
     assert used == {(0.8, 0.8), (-0.5, -0.25)}
 
-    # What `bubblerob record` writes for the same seed and actions (its API, ROS 1 format).
+    # The node's time starts at its wall-clock start, as a recorder's does.
+    first = live["/clock"][0].clock
+    assert abs(first.sec - time.time()) < 600
+    start = f"{first.sec}.{first.nanosec:09d}"
+    # What `bubblerob record` writes for the same seed, actions and start (its API, ROS 1 format).
     env = gym.make("BubbleRob-v0")
-    with RosBagRecorder(env, tmp_path / "recorded", format="ros1") as rec:
+    with RosBagRecorder(env, tmp_path / "recorded", format="ros1", start_time=start) as rec:
         rec.reset(seed=SEED)
         for action in actions:
             rec.step(action)

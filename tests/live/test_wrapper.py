@@ -51,8 +51,11 @@ def test_live_publisher_sends_the_recorders_bytes(tmp_path):
     live = RosLivePublisher(gym.make("BubbleRob-v0", camera=True), backend)
     drive(live)
     live.close()
-    with RosBagRecorder(gym.make("BubbleRob-v0", camera=True), tmp_path / "b", format="ros1") as r:
+    start = f"{live.start_time_ns // 10**9}.{live.start_time_ns % 10**9:09d}"  # the wall clock
+    env = gym.make("BubbleRob-v0", camera=True)
+    with RosBagRecorder(env, tmp_path / "b", format="ros1", start_time=start) as r:
         drive(r)
+    assert r.start_time_ns == live.start_time_ns
     recorded: dict[str, list[bytes]] = {}
     with Reader(tmp_path / "b.bag") as reader:
         for connection, _, raw in reader.messages():
@@ -87,10 +90,11 @@ def test_live_episode_metadata_is_the_recorders_with_rng_state(tmp_path):
         env.step(np.zeros(2, dtype=np.float32))
 
     backend = FakeBackend()
-    live = RosLivePublisher(gym.make("BubbleRob-v0"), backend)
+    live = RosLivePublisher(gym.make("BubbleRob-v0"), backend, start_time="2024-05-01")
     unseeded(live)
     live.close()
-    with RosBagRecorder(gym.make("BubbleRob-v0"), tmp_path / "b", format="ros1") as recorder:
+    env = gym.make("BubbleRob-v0")
+    with RosBagRecorder(env, tmp_path / "b", format="ros1", start_time=1714521600) as recorder:
         unseeded(recorder)
 
     def decode(raw: bytes) -> dict:
@@ -108,3 +112,4 @@ def test_live_episode_metadata_is_the_recorders_with_rng_state(tmp_path):
         assert live_meta.pop("format") == "live" and bag_meta.pop("format") == "ros1"
         assert live_meta == bag_meta
     assert published[0]["rng_state"] is None and published[1]["rng_state"]["bit_generator"]
+    assert published[0]["start_time_ns"] == 1714521600 * 10**9

@@ -26,6 +26,7 @@ def forward_policy(monkeypatch):
 def test_record_info_replay(tmp_path, capsys, forward_policy):
     argv = ["record", "--policy", "forward", "--episodes", "2", "--seed", "7"]
     argv += ["--format", "ros1", "--compression", "bz2", "--max-steps", "6"]
+    argv += ["--start-time", "2024-05-01T12:00:00Z"]
     assert cli.main([*argv, "--no-progress", "--out", str(tmp_path)]) == 0
     bag = tmp_path / "bubblerob_forward_seed7.bag"
     assert f"to {bag}" in capsys.readouterr().out
@@ -33,14 +34,16 @@ def test_record_info_replay(tmp_path, capsys, forward_policy):
     assert cli.main(["info", str(bag)]) == 0
     out = capsys.readouterr().out
     assert "/scan" in out and "sensor_msgs/msg/LaserScan" in out
-    assert "#0: start 0.000 s, seed 7, policy forward" in out
-    assert "#1: start 0.350 s, seed 8" in out
+    assert "start/end: 2024-05-01 12:00:00.000 UTC (1714564800.000 s) / " in out
+    assert "#0: start +0.000 s, seed 7, policy forward" in out
+    assert "#1: start +0.350 s, seed 8" in out
 
     assert cli.main(["info", str(bag), "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     counts = {t["name"]: t["count"] for t in summary["topics"]}
     assert counts["/cmd_vel"] == 12 and counts["/scan"] == 14
     assert summary["duration_s"] == pytest.approx(0.65)
+    assert summary["start_ns"] == 1714564800 * 10**9
 
     assert cli.main(["replay", str(bag)]) == 0
     assert "replay matches the recording" in capsys.readouterr().out

@@ -16,6 +16,9 @@ from bubblerob_env.ros.fastpath.framing import Framing, Record
 from bubblerob_env.ros.messages.topics import Topics
 from bubblerob_env.specs import EnvSpecs
 
+EPOCH_NS = 1_700_000_000_123_456_789
+"""A real start time with every digit used: nanoseconds carry into seconds mid-episode."""
+
 
 class _Collect(BagSink):
     """A sink that takes records only, like a live publisher."""
@@ -79,7 +82,7 @@ def _record(
         fanout.add_sink(collector)
         records = collector.records
         assert not fanout.batching  # a sink without framing turns batching off
-    stream = EpisodeStream(fanout, round(float(env.unwrapped.dt) * 1e9))
+    stream = EpisodeStream(fanout, round(float(env.unwrapped.dt) * 1e9), EPOCH_NS)
     rng = np.random.default_rng(3)
     for episode in range(3):
         stream.reset(env, episode, None, {"format": fmt})

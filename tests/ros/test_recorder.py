@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import time
 
 import gymnasium as gym
 import numpy as np
@@ -35,8 +36,10 @@ def test_round_trip_observations_field_by_field(tmp_path, fmt, compression):
         assert len(messages[topic]) == len(frames), topic
     for topic in STEP_TOPICS:
         assert len(messages[topic]) == len(frames) - 1, topic
+    start = recorder.start_time_ns
+    assert abs(start - time.time_ns()) < 600 * 10**9  # by default, the wall clock at the start
     for i, (obs, info, action, reward) in enumerate(frames):
-        stamp = round(info["sim_time"] * 1e9)
+        stamp = start + round(info["sim_time"] * 1e9)
         _, scan = messages["/scan"][i]
         expected = np.where(obs["laser"] >= spec.range_max, np.inf, obs["laser"])
         np.testing.assert_array_equal(scan.ranges, expected.astype(np.float32))
@@ -117,7 +120,7 @@ def test_time_increases_strictly_across_episodes(tmp_path, fmt, compression):
     ]
     episodes = read_summary(path).episodes
     starts = [e["start_time_ns"] for e in episodes]
-    assert len(starts) == 3 and starts[0] == 0
+    assert len(starts) == 3 and starts[0] == recorder.start_time_ns == clock[0]
     dt = round(env.unwrapped.dt * 1e9)
     for start, (stamp, _) in zip(
         starts[1:], [messages["/clock"][9], messages["/clock"][18]], strict=True
@@ -156,22 +159,35 @@ def test_reserved_metadata_keys_are_rejected(tmp_path):
 
 def test_one_bag_per_episode(tmp_path):
     with RosBagRecorder(
-        gym.make("BubbleRob-v0"), tmp_path / "run", format="ros1", per_episode=True
+        gym.make("BubbleRob-v0"),
+        tmp_path / "run",
+        format="ros1",
+        per_episode=True,
+        start_time="2024-05-01T12:00:00Z",
     ) as recorder:
         drive(recorder, episodes=3, steps=4)
     assert [p.name for p in recorder.bag_paths] == [f"episode_00000{i}.bag" for i in range(3)]
     for i, path in enumerate(recorder.bag_paths):
         summary = read_summary(path)
         assert [e["episode"] for e in summary.episodes] == [i]
-        assert summary.start_ns == 0
+        assert summary.start_ns == 1714564800 * 10**9
         assert len(read_all(path)["/tf_static"]) == 1  # every bag starts with its own
 
 
 def test_tf_static_is_recorded_once_per_bag(record):
-    messages = read_all(record("mcap", episodes=3, steps=4))
+    messages = read_all(record("mcap", episodes=3, steps=4, start_time=1700000000.25))
     assert len(messages["/bubblerob/episode"]) == 3
-    ((stamp, _),) = messages["/tf_static"]  # latched: once, before the first episode's frame
-    assert stamp == 0
+    ((stamp, static),) = messages["/tf_static"]  # latched: once, before the first episode's frame
+    assert stamp == 1700000000_250000000 == messages["/clock"][0][0]
+    for transform in static.transforms:  # tf2 ignores nothing stamped at a real time
+        assert (transform.header.stamp.sec, transform.header.stamp.nanosec) == (1700000000, 25e7)
+
+
+@pytest.mark.parametrize("start_time", [0, -1, "2040-01-01", "yesterday", float("nan")])
+def test_bad_start_times_are_rejected(tmp_path, start_time):
+    with pytest.raises(ValueError, match="start time"):
+        RosBagRecorder(gym.make("BubbleRob-v0"), tmp_path / "bag", start_time=start_time)
+    assert not (tmp_path / "bag").exists()
 
 
 def test_custom_topic_names_and_namespace(tmp_path):

@@ -103,6 +103,11 @@ def add_node_subcommand(subparsers: Any) -> None:
     node.add_argument("--max-steps", type=int, default=None, help="step limit per episode")
     node.add_argument("--no-clock", action="store_true", help="do not publish /clock")
     node.add_argument(
+        "--start-time",
+        default=None,
+        help="stamp of the first frame: Unix seconds or an ISO 8601 date (default: now)",
+    )
+    node.add_argument(
         "--env",
         type=_env_arg,
         action="append",
@@ -134,6 +139,7 @@ def _node(args: argparse.Namespace) -> int:
     import gymnasium as gym
 
     import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
+    from bubblerob_env.ros.episodes import start_time_ns
     from bubblerob_env.ros.live.backend import BackendError, load_backend
     from bubblerob_env.ros.live.node import NodeConfig, SimNode
     from bubblerob_env.ros.messages.topics import topics_preset
@@ -162,7 +168,10 @@ def _node(args: argparse.Namespace) -> int:
             watchdog=args.watchdog,
             seed=args.seed,
             start=args.start,
+            start_time=args.start_time,
         )
+        if args.start_time is not None:
+            start_time_ns(args.start_time)  # a bad date fails here, before ROS starts
         env = gym.make("BubbleRob-v0", **kwargs)
     except (TypeError, ValueError) as error:
         return fail(str(error))

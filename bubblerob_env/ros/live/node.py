@@ -51,6 +51,8 @@ class NodeConfig:
         seed: Seed of the first episode; episode ``k`` is reset with ``seed + k`` (as
             ``bubblerob record``); ``None``: unseeded.
         start: Initial state: ``"running"``, ``"paused"`` or ``"stopped"``.
+        start_time: Stamp of the first frame and ``/clock`` (Unix seconds or an ISO 8601 date);
+            ``None``: the wall clock when the node starts.
     """
 
     rate_factor: float = 1.0
@@ -58,6 +60,7 @@ class NodeConfig:
     watchdog: float = 0.5
     seed: int | None = 0
     start: str = "running"
+    start_time: float | str | None = None
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.rate_factor) and self.rate_factor >= 0):
@@ -95,7 +98,9 @@ class SimNode:
         names = topics.resolved()
         self.command_names = {k: names[k] for k in COMMAND_KEYS if k in names}
         live_topics = topics.replace(**dict.fromkeys(COMMAND_KEYS))
-        self.publisher = RosLivePublisher(env, backend, topics=live_topics)
+        self.publisher = RosLivePublisher(
+            env, backend, topics=live_topics, start_time=self.config.start_time
+        )
         self.names = (controls or ControlTopics()).resolved(topics.namespace)
         resolved = live_topics.resolved()
         self._sensor_topics = {
@@ -170,7 +175,7 @@ class SimNode:
     def sim_time(self) -> float:
         """Simulated seconds since the first reset (the ``/clock`` time)."""
         stamp = self.publisher.stamp_ns
-        return 0.0 if stamp is None else stamp * 1e-9
+        return 0.0 if stamp is None else (stamp - self.publisher.start_time_ns) * 1e-9
 
     def _publish_state(self) -> None:
         self._state_out(self._serialize("std_msgs/msg/Int32", data=self.sim_state))

@@ -1,8 +1,9 @@
 """``RosLivePublisher``: a Gymnasium wrapper that publishes every step of any loop live.
 
 Frames are stamped exactly as :class:`~bubblerob_env.ros.recorder.RosBagRecorder` stamps them
-(simulated time, episodes back to back), so ``rosbag record`` of a live run holds the messages a
-recorder writes for the same seeds and actions, with ``/clock`` for ``use_sim_time``.
+(simulated time from a real start time, episodes back to back), so ``rosbag record`` of a live
+run holds the messages a recorder writes for the same seeds, actions and start time, with
+``/clock`` for ``use_sim_time``.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from numpy.typing import NDArray
 
 from bubblerob_env.ros.bags.fanout import MessageFanout
 from bubblerob_env.ros.bags.sinks import BagSink
-from bubblerob_env.ros.episodes import EpisodeStream, jsonable
+from bubblerob_env.ros.episodes import EpisodeStream, jsonable, start_time_ns
 from bubblerob_env.ros.live.backend import LiveBackend, load_backend
 from bubblerob_env.ros.live.sink import LiveSink
 from bubblerob_env.ros.messages.topics import Topics
@@ -42,6 +43,8 @@ class RosLivePublisher(gym.Wrapper[Any, Any, Any, Any]):
         sinks: More sinks (bags from :func:`~bubblerob_env.ros.bags.sinks.open_bag`) fed with the
             same serialised bytes; they are closed by :meth:`close`.
         metadata: JSON-able facts published with every episode on the episode topic.
+        start_time: Stamp of the first frame, Unix seconds or an ISO 8601 date (see
+            :func:`~bubblerob_env.ros.episodes.start_time_ns`); default: now.
     """
 
     def __init__(
@@ -52,6 +55,7 @@ class RosLivePublisher(gym.Wrapper[Any, Any, Any, Any]):
         topics: Topics | None = None,
         sinks: Sequence[BagSink] = (),
         metadata: Mapping[str, Any] | None = None,
+        start_time: float | str | None = None,
     ) -> None:
         super().__init__(env)
         self.topics = topics or Topics()
@@ -67,7 +71,9 @@ class RosLivePublisher(gym.Wrapper[Any, Any, Any, Any]):
         for sink in self._extra:
             self.fanout.add_sink(sink)
         self.episode = 0
-        self._stream = EpisodeStream(self.fanout, self._dt_ns)
+        self.start_time_ns = start_time_ns(start_time)
+        """Stamp of the first frame (nanoseconds since the Unix epoch)."""
+        self._stream = EpisodeStream(self.fanout, self._dt_ns, self.start_time_ns)
         self._closed = False
 
     @property
@@ -82,7 +88,7 @@ class RosLivePublisher(gym.Wrapper[Any, Any, Any, Any]):
 
     @property
     def stamp_ns(self) -> int | None:
-        """Stamp of the latest frame (simulated nanoseconds since the first reset)."""
+        """Stamp of the latest frame (nanoseconds: :attr:`start_time_ns` + simulated time)."""
         return self._stream.last_ns
 
     def reset(
