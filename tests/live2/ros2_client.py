@@ -27,6 +27,16 @@ from tf2_msgs.msg import TFMessage
 
 LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 SENSOR_TYPES = (LaserScan, Range, Image, CameraInfo)
+RAW_TOPICS = {
+    "/odom": Odometry,
+    "/tf": TFMessage,
+    "/clock": Clock,
+    "/sensorTrigger": Bool,
+    "/terminated": Bool,
+    "/simulationTime": Float32,
+    "/bubblerob/action": Float64MultiArray,
+}
+"""Reliable topics whose every message ``tutorialloop --raw`` keeps as received (CDR bytes)."""
 
 
 class Counter:
@@ -278,6 +288,11 @@ def cmd_tutorialloop(node, args):
     right = publisher(node, ns(args, "rightMotorSpeed"), Float32)
     trigger = publisher(node, ns(args, "triggerNextStep"), Bool)
     start = publisher(node, ns(args, "startSimulation"), Bool)
+    raw = {}
+    for topic, cls in RAW_TOPICS.items():
+        if args.raw:
+            raw[topic] = []
+            node.create_subscription(cls, ns(args, topic[1:]), raw[topic].append, 1000, raw=True)
     for c in (trig, done, term, odom, action):
         matched(node, c)
     start.publish(Bool(data=True))
@@ -301,6 +316,9 @@ def cmd_tutorialloop(node, args):
         done.wait(k + 1)
         trig.wait(k + 2)
     time.sleep(args.settle)
+    if args.raw:
+        with open(args.raw, "w") as f:
+            json.dump({t: [bytes(m).hex() for m in msgs] for t, msgs in raw.items()}, f)
     return {
         "steps": done.count,
         "collisions": sum(m.data for m in term.all),
@@ -344,6 +362,7 @@ def main():
     p.add_argument("--speed", type=float, default=10.0)
     p.add_argument("--back-steps", type=int, default=30)
     p.add_argument("--settle", type=float, default=1.0)
+    p.add_argument("--raw", default=None, help="write the raw CDR of RAW_TOPICS here (JSON)")
     args = parser.parse_args()
     rclpy.init()
     node = Node(
