@@ -28,7 +28,7 @@ import torch
 from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.env_util import make_vec_env
-from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor, VecNormalize
+from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
 
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
 from bubblerob_env.sb3 import BubbleRobSB3VecEnv
@@ -93,7 +93,7 @@ def _training_envs(n_envs: int, vec_env: str) -> Any:
     if vec_env == "batched":
         envs = BubbleRobSB3VecEnv(n_envs)
         envs.seed(0)
-        return VecMonitor(envs)
+        return envs
     return make_vec_env("BubbleRob-v0", n_envs=n_envs, seed=0, vec_env_cls=DummyVecEnv)
 
 

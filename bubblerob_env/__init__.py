@@ -21,11 +21,13 @@ from bubblerob_env.sensors import (  # noqa: E402
     ProximitySpec,
     StaticTransform,
 )
+from bubblerob_env.vector import BubbleRobVectorEnv  # noqa: E402
 from bubblerob_env.wrappers import EpisodeSuccess  # noqa: E402
 
 __all__ = [
     "ACTION_TYPES",
     "BubbleRobEnv",
+    "BubbleRobVectorEnv",
     "CameraSpec",
     "DiffDrive",
     "EpisodeSuccess",

@@ -4,13 +4,15 @@ A drop-in for ``make_vec_env("BubbleRob-v0", n_envs=N, seed=s)``: robot ``i`` se
 (``venv.seed(s)``), the same time limit (1000 steps unless ``max_episode_steps``), and SB3's
 conventions on an episode's last step: ``info["terminal_observation"]``,
 ``info["TimeLimit.truncated"]`` and the env's ``info["is_success"]``; the returned observation is
-already the next episode's first (SB3 resets in the same step). Wrap it in SB3's ``VecMonitor``
-for episode returns and lengths (``python -m train --vec-env batched`` does). Needs
-``stable-baselines3`` (the ``train`` extra).
+already the next episode's first (SB3 resets in the same step); and, as SB3's ``Monitor`` adds,
+``info["episode"]`` with the episode's return ``r``, length ``l`` and time ``t``, so that SB3's
+logs and ``EvalCallback``'s normalisation sync work without another wrapper. Used by
+``python -m train --vec-env batched``. Needs ``stable-baselines3`` (the ``train`` extra).
 """
 
 from __future__ import annotations
 
+import time
 from collections.abc import Iterable, Sequence
 from typing import Any
 
@@ -59,11 +61,14 @@ class BubbleRobSB3VecEnv(VecEnv):
         super().__init__(num_envs, first.observation_space, first.action_space)
         self.metadata = self.venv.metadata
         self._actions: np.ndarray | None = None
+        self._returns: list[list[float]] = [[] for _ in range(num_envs)]
+        self._start = time.time()
 
     def reset(self) -> VecEnvObs:
         """Reset every robot with the seeds given to :meth:`seed` (then unseeded)."""
         options = self._options[0] if self._options and self._options[0] else None
         obs, info = self.venv.reset(seed=list(self._seeds), options=options)
+        self._returns = [[] for _ in range(self.num_envs)]
         self.reset_infos = [
             {k: info[k][i] for k in info if not k.startswith("_") and info[f"_{k}"][i]}
             for i in range(self.num_envs)
@@ -83,12 +88,21 @@ class BubbleRobSB3VecEnv(VecEnv):
             np.asarray(self._actions, dtype=np.float32)
         )
         for i, final in enumerate(finals):
+            self._returns[i].append(float(rewards[i]))
             if final is None:
                 infos[i]["TimeLimit.truncated"] = False  # as SB3's DummyVecEnv
                 continue
             final_obs, _, final_terminated, final_truncated, final_info = final
+            episode = self._returns[i]
+            self._returns[i] = []
             infos[i] = {
                 **final_info,
+                # As SB3's Monitor writes it.
+                "episode": {
+                    "r": round(sum(episode), 6),
+                    "l": len(episode),
+                    "t": round(time.time() - self._start, 6),
+                },
                 "terminal_observation": final_obs,
                 "TimeLimit.truncated": final_truncated and not final_terminated,
             }

@@ -275,6 +275,27 @@ class BubbleRobVectorEnv(VectorEnv[dict[str, NDArray[Any]], NDArray[np.float32],
     def _batch_obs(self, obs_list: list[dict[str, NDArray[Any]]]) -> dict[str, NDArray[Any]]:
         return {key: np.array([obs[key] for obs in obs_list]) for key in obs_list[0]}
 
+    def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
+        """Each robot's ``name`` attribute, called with the arguments if it is callable."""
+        results = []
+        for env in self.envs:
+            attribute = getattr(env, name)
+            results.append(attribute(*args, **kwargs) if callable(attribute) else attribute)
+        return tuple(results)
+
+    def get_attr(self, name: str) -> tuple[Any, ...]:
+        """Each robot's ``name`` attribute."""
+        return tuple(getattr(env, name) for env in self.envs)
+
+    def set_attr(self, name: str, values: Any) -> None:
+        """Set ``name`` on every robot: one value each (a list or tuple), or the same for all."""
+        if not isinstance(values, (list, tuple)):
+            values = [values] * self.num_envs
+        if len(values) != self.num_envs:
+            raise ValueError(f"set_attr needs {self.num_envs} values, got {len(values)}")
+        for env, value in zip(self.envs, values, strict=True):
+            setattr(env, name, value)
+
     def render(self) -> tuple[Any, ...] | None:
         """Each robot's frame (``rgb_array``), or update their windows (``human``)."""
         if self.render_mode is None:

@@ -9,7 +9,6 @@ import pytest
 pytest.importorskip("stable_baselines3")
 from stable_baselines3.common.env_checker import check_env  # noqa: E402
 from stable_baselines3.common.env_util import make_vec_env  # noqa: E402
-from stable_baselines3.common.vec_env import VecMonitor  # noqa: E402
 
 import bubblerob_env  # noqa: E402,F401
 from bubblerob_env.sb3 import BubbleRobSB3VecEnv  # noqa: E402
@@ -38,7 +37,10 @@ def test_adapter_matches_make_vec_env(num_threads):
         obs_t, rewards_t, dones_t, infos_t = theirs.step(action)
         assert _same(obs, obs_t) and _same(rewards, rewards_t) and _same(dones, dones_t)
         for info, info_t in zip(infos, infos_t, strict=True):
-            info_t = {k: v for k, v in info_t.items() if k != "episode"}  # Monitor's
+            assert "episode" in info_t or "episode" not in info
+            if "episode" in info_t:  # Monitor's: the same return and length, another clock
+                episode, episode_t = info.pop("episode"), info_t.pop("episode")
+                assert (episode["r"], episode["l"]) == (episode_t["r"], episode_t["l"])
             assert _same(info, info_t)
         dones_seen += int(dones.sum())
     assert dones_seen >= n * 3
@@ -46,8 +48,8 @@ def test_adapter_matches_make_vec_env(num_threads):
     theirs.close()
 
 
-def test_adapter_in_vec_monitor_reports_episodes():
-    envs = VecMonitor(BubbleRobSB3VecEnv(2, max_episode_steps=5))
+def test_adapter_reports_episodes_as_monitor():
+    envs = BubbleRobSB3VecEnv(2, max_episode_steps=5)
     envs.reset()
     for _ in range(5):
         _, _, dones, infos = envs.step(np.zeros((2, 2), np.float32))
@@ -61,3 +63,26 @@ def test_single_env_passes_sb3_check_env():
     import gymnasium as gym
 
     check_env(gym.make("BubbleRob-v0"), warn=True)
+
+
+def test_train_with_the_native_batch(tmp_path):
+    from train.train import train
+
+    final = train(
+        "ppo",
+        "BubbleRob-v0",
+        tmp_path,
+        timesteps=256,
+        n_envs=2,
+        seed=3,
+        eval_freq=128,
+        eval_episodes=1,
+        progress_bar=False,
+        overrides={"n_steps": 64, "batch_size": 32},
+        vec_env="batched",
+    )
+    assert final.is_file() and (tmp_path / "best_model.zip").is_file()
+    from train.train import _batched_envs
+
+    with pytest.raises(ValueError, match="BubbleRob-v0 only"):
+        _batched_envs("HalfCheetah-v5", 2, 0, {})

@@ -217,3 +217,29 @@ def test_readme_batched_env_example_runs():
     )
     assert result.returncode == 0, result.stderr
     assert "laser batch (8, 360)" in result.stdout
+
+
+def test_call_get_attr_set_attr_reach_every_robot():
+    envs = _make_vec(3, laser_num_rays=10)
+    assert envs.get_attr("arena_size") == (4.0, 4.0, 4.0)
+    assert envs.call("dt") == (0.05, 0.05, 0.05)
+    envs.set_attr("collision_penalty", [1.0, 2.0, 3.0])
+    assert envs.get_attr("collision_penalty") == (1.0, 2.0, 3.0)
+    with pytest.raises(ValueError, match="3 values"):
+        envs.set_attr("collision_penalty", [1.0])
+    envs.close()
+
+
+def test_long_random_runs_stay_far_inside_the_small_arena():
+    # Robots pushing into walls and large obstacles without termination: the most contacts.
+    envs = _make_vec(
+        4, terminate_on_collision=False, num_obstacles=(10, 10), obstacle_size=(0.2, 0.4)
+    )
+    envs.reset(seed=0)
+    actions = _actions(1500, 4, seed=5)
+    most = 0
+    for action in actions:
+        envs.step(action)  # raises if MuJoCo reports a full arena
+        most = max(most, *(env.data.maxuse_arena for env in envs.envs))
+    assert 0 < most < ARENA_MEMORY // 8
+    envs.close()

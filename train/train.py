@@ -245,15 +245,13 @@ def train(
 
 def _batched_envs(env_id: str, count: int, seed: int, env_kwargs: dict[str, Any]) -> Any:
     """``--vec-env batched``: the native batch (threads), as ``make_vec_env`` would seed it."""
-    from stable_baselines3.common.vec_env import VecMonitor
-
     from bubblerob_env.sb3 import BubbleRobSB3VecEnv
 
     if env_id != "BubbleRob-v0":
         raise ValueError(f"--vec-env batched steps BubbleRob-v0 only, not {env_id!r}")
     envs = BubbleRobSB3VecEnv(count, **env_kwargs)
     envs.seed(seed)
-    return VecMonitor(envs)
+    return envs
 
 
 def _default_command(algo: str, env_id: str, out: Path) -> str:
