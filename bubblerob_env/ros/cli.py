@@ -154,6 +154,8 @@ def _info(args: argparse.Namespace) -> int:
         print(json.dumps(summary.to_dict(), indent=2, sort_keys=True))
         return 0
     print(f"bag:       {summary.path}")
+    if summary.unfinished:
+        print(f"unfinished recording: {len(summary.episodes)} complete episodes")
     print(f"storage:   {summary.storage}")
     print(f"duration:  {summary.duration_s:.3f} s (simulated)")
     print(f"start/end: {_utc(summary.start_ns)} / {_utc(summary.end_ns)}")
@@ -184,7 +186,7 @@ def _utc(ns: int) -> str:
 def _replay(args: argparse.Namespace) -> int:
     try:
         report = replay_bag(args.bag, max_episodes=args.episodes)
-    except (ReplayError, FileNotFoundError) as error:
+    except (ReplayError, OSError) as error:
         print(f"bubblerob replay: {error}", file=sys.stderr)
         return 2
     print(report)

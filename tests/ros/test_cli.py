@@ -68,3 +68,27 @@ def test_record_with_a_builtin_policy(tmp_path, capsys):
 def test_replay_of_a_missing_bag_fails_cleanly(tmp_path, capsys):
     assert cli.main(["replay", str(tmp_path / "nothing")]) == 2
     assert "no bag at" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("command", ["info", "replay"])
+@pytest.mark.parametrize(
+    ("name", "content", "says"),
+    [
+        ("notes.txt", b"hello", "is not a bag"),
+        ("fake.bag", b"hello", "is not a ROS 1 bag"),
+        ("fake/bag.mcap", b"hello", "is not an MCAP file"),
+        ("fake/bag.db3", b"hello" * 300, "is not a rosbag2 sqlite3 file"),
+        ("empty_dir/", b"", "is not a bag"),
+    ],
+)
+def test_a_file_that_is_no_bag_gets_one_line(tmp_path, capsys, command, name, content, says):
+    path = tmp_path / name
+    if name.endswith("/"):
+        path.mkdir()
+    else:
+        path.parent.mkdir(exist_ok=True)
+        path.write_bytes(content)
+    assert cli.main([command, str(path)]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and captured.err.count("\n") == 1, captured.err
+    assert captured.err.startswith(f"bubblerob {command}: ") and says in captured.err

@@ -17,6 +17,7 @@ from mcap.stream_reader import StreamReader
 from ros_helpers import FORWARD, missing_debian_ros, read_all, run_debian
 
 from bubblerob_env.ros import RosBagRecorder
+from bubblerob_env.ros.readback.replay import replay_bag
 from bubblerob_env.ros.readback.summary import read_summary
 
 CHILD = textwrap.dedent(
@@ -153,10 +154,28 @@ def test_hard_kill_loses_at_most_the_current_episode(tmp_path, fmt):
     assert returncode == -signal.SIGKILL
     path = bag.with_suffix(".bag") if fmt == "ros1" else bag
     ends = _episode_ends(last + 41)
-    kept = _cmd_vel_after_hard_kill(path, fmt)
+    # Our own reader first, read-only: every complete episode, nothing of the unfinished one.
+    before = sorted(
+        (p.name, p.stat().st_size) for p in ([path] if path.is_file() else path.iterdir())
+    )
+    summary = read_summary(path)
+    report = replay_bag(path)
+    after = sorted(
+        (p.name, p.stat().st_size) for p in ([path] if path.is_file() else path.iterdir())
+    )
+    assert after == before  # nothing written: no journal rolled back, no index added
+    assert summary.unfinished and report.unfinished and report.ok, report
+    assert "unfinished recording" in str(report)
+    complete = len(summary.episodes)
+    assert report.episodes == complete and report.steps == ends[complete - 1]
+    counts = {t.name: t.count for t in summary.topics}
+    assert counts["/cmd_vel"] == ends[complete - 1]
+    assert counts["/scan"] == ends[complete - 1] + complete and counts["/tf_static"] == 1
+    kept = _cmd_vel_after_hard_kill(path, fmt)  # then the formats' own recovery
     # every episode that ended before the kill, or the one ending at the step it was printing
     assert kept in (max(end for end in ends if end <= last), min(e for e in ends if e > last))
     assert kept >= ends[1]
+    assert kept == ends[complete - 1]  # we read what the recovery tools recover
 
 
 def test_exception_inside_with_block_closes_the_bag(tmp_path):
@@ -203,3 +222,38 @@ def test_signal_handlers_are_restored_after_close(tmp_path):
     assert signal.getsignal(signal.SIGTERM) is not before[0]
     recorder.close()
     assert (signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGINT)) == before
+
+
+def _cut(path, fmt, size):
+    """A copy of a finished bag cut after ``size`` bytes, as a killed recorder leaves it."""
+    if fmt == "ros1":
+        cut = path.with_name(f"cut_{size}.bag")
+        cut.write_bytes(path.read_bytes()[:size])
+        return cut
+    cut = path.with_name(f"cut_{size}")
+    cut.mkdir()
+    source = next(path.glob("*.mcap"))
+    (cut / source.name).write_bytes(source.read_bytes()[:size])  # no metadata.yaml
+    return cut
+
+
+@pytest.mark.parametrize(
+    ("fmt", "compression"), [("mcap", "zstd"), ("mcap", "none"), ("ros1", "bz2"), ("ros1", "lz4")]
+)
+def test_bags_cut_anywhere_read_their_complete_episodes(record, fmt, compression):
+    bag = record(fmt, compression, episodes=4, steps=99, env_kwargs={"max_episode_steps": 12})
+    data = next(bag.glob("*.mcap")).read_bytes() if fmt == "mcap" else bag.read_bytes()
+    seen = []
+    for size in range(len(data) // 9, len(data), len(data) // 9):
+        cut = _cut(bag, fmt, size)
+        summary = read_summary(cut)
+        assert summary.unfinished
+        complete = len(summary.episodes)
+        counts = {t.name: t.count for t in summary.topics}
+        assert counts.get("/cmd_vel", 0) == 12 * complete
+        assert counts.get("/scan", 0) == 13 * complete
+        if complete:
+            report = replay_bag(cut)
+            assert report.ok and report.episodes == complete, report
+        seen.append(complete)
+    assert seen == sorted(seen) and seen[-1] >= 3  # more file, more episodes; nearly all at the end

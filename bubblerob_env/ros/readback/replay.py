@@ -16,14 +16,13 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from rosbags.highlevel import AnyReader
 
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
 from bubblerob_env.ros.fastpath.framing import Record
 from bubblerob_env.ros.fastpath.serializer import FrameSerializer
 from bubblerob_env.ros.messages.distros import deserialize
 from bubblerob_env.ros.messages.topics import MSGTYPES, Topics
-from bubblerob_env.ros.readback.summary import bag_root, find_episodes
+from bubblerob_env.ros.readback.summary import bag_root, find_episodes, open_reader
 from bubblerob_env.specs import EnvSpecs
 
 __all__ = ["Divergence", "ReplayError", "ReplayReport", "replay_bag"]
@@ -61,6 +60,8 @@ class ReplayReport:
     steps: int
     messages: int
     divergence: Divergence | None
+    unfinished: bool = False
+    """The bag was never finished: its complete episodes were replayed."""
 
     @property
     def ok(self) -> bool:
@@ -69,6 +70,9 @@ class ReplayReport:
 
     def __str__(self) -> str:
         head = f"{self.path}: {self.episodes} episode(s), {self.steps} step(s), "
+        if self.unfinished:
+            head = f"{self.path}: unfinished recording: {self.episodes} complete episode(s), "
+            head += f"{self.steps} step(s), "
         if self.ok:
             return head + f"{self.messages} messages: replay matches the recording"
         return head + f"first divergence at {self.divergence}"
@@ -114,7 +118,7 @@ def _first_difference(value_a: Any, value_b: Any, path: str = "") -> tuple[str, 
 class _Episode:
     """Recorded messages of one episode, per topic, in time order."""
 
-    def __init__(self, reader: AnyReader, start: int, stop: int | None, topics: set[str]) -> None:
+    def __init__(self, reader: Any, start: int, stop: int | None, topics: set[str]) -> None:
         connections = [c for c in reader.connections if c.topic in topics]
         self.messages: dict[str, list[tuple[int, bytes]]] = {t: [] for t in topics}
         for connection, stamp, raw in reader.messages(
@@ -135,7 +139,8 @@ def replay_bag(path: str | Path, max_episodes: int | None = None) -> ReplayRepor
     """Replay the bag at ``path`` (see the module docstring); stops at the first divergence."""
     root = bag_root(path)
     episodes_done = steps = compared = 0
-    with AnyReader([root]) as reader:
+    with open_reader(root) as reader:
+        unfinished = getattr(reader, "unfinished", False)
         _, episodes = find_episodes(reader)
         if not episodes:
             raise ReplayError(f"{root} holds no bubblerob episode metadata: nothing to replay")
@@ -163,11 +168,11 @@ def replay_bag(path: str | Path, max_episodes: int | None = None) -> ReplayRepor
                 compared += result[1]
                 episodes_done += 1
                 if result[2] is not None:
-                    return ReplayReport(root, episodes_done, steps, compared, result[2])
+                    return ReplayReport(root, episodes_done, steps, compared, result[2], unfinished)
         finally:
             if env is not None:
                 env.close()
-    return ReplayReport(root, episodes_done, steps, compared, None)
+    return ReplayReport(root, episodes_done, steps, compared, None, unfinished)
 
 
 def _replay_episode(

@@ -9,17 +9,22 @@ name they were recorded under.
 from __future__ import annotations
 
 import json
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from rosbags.highlevel import AnyReader
 
+from bubblerob_env.ros.readback.unfinished import read_unfinished
+
 __all__ = [
     "BagSummary",
     "TopicSummary",
     "bag_root",
     "find_episodes",
+    "open_reader",
     "read_summary",
 ]
 
@@ -47,6 +52,8 @@ class BagSummary:
     end_ns: int
     episodes: tuple[dict[str, Any], ...] = field(default=())
     episode_topic: str | None = None
+    unfinished: bool = False
+    """The recording was never finished (killed): only its complete episodes are counted."""
 
     @property
     def duration_s(self) -> float:
@@ -65,6 +72,7 @@ class BagSummary:
             "topics": [t.__dict__ for t in self.topics],
             "episode_topic": self.episode_topic,
             "episodes": list(self.episodes),
+            "unfinished": self.unfinished,
         }
 
 
@@ -73,10 +81,32 @@ def bag_root(path: str | Path) -> Path:
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"no bag at {path}")
-    storage_file = path.is_file() and path.suffix in (".mcap", ".db3")
-    if storage_file and (path.parent / "metadata.yaml").exists():
+    if path.is_file() and path.suffix in (".mcap", ".db3"):
         return path.parent
     return path
+
+
+@contextmanager
+def open_reader(root: Path) -> Iterator[Any]:
+    """The bag at ``root``, opened for reading: a ``rosbags`` ``AnyReader``.
+
+    For a bag that was never finished (no ``metadata.yaml``, no MCAP summary, no ROS 1 index):
+    an :class:`~bubblerob_env.ros.readback.unfinished.UnfinishedReader` of its complete episodes.
+
+    Raises:
+        OSError: ``root`` is not a bag (the message says why in one line).
+    """
+    reader: Any
+    try:
+        reader = AnyReader([root])
+        reader.open()
+    except Exception:  # noqa: BLE001 - rosbags' errors vary: no metadata, no index, cut short
+        reader = read_unfinished(root)  # raises OSError for what is no bag at all
+    try:
+        yield reader
+    finally:
+        if not getattr(reader, "unfinished", False):
+            reader.close()
 
 
 def _storage(root: Path) -> str:
@@ -89,7 +119,7 @@ def _storage(root: Path) -> str:
     return "unknown"
 
 
-def find_episodes(reader: AnyReader) -> tuple[str | None, list[dict[str, Any]]]:
+def find_episodes(reader: Any) -> tuple[str | None, list[dict[str, Any]]]:
     """``(topic, metadata of each episode)``: the first String topic holding episode metadata."""
     for connection in reader.connections:
         if connection.msgtype != _STRING:
@@ -112,7 +142,7 @@ def find_episodes(reader: AnyReader) -> tuple[str | None, list[dict[str, Any]]]:
 def read_summary(path: str | Path) -> BagSummary:
     """Topics, message counts, time span and episode metadata of the bag at ``path``."""
     root = bag_root(path)
-    with AnyReader([root]) as reader:
+    with open_reader(root) as reader:
         counts: dict[tuple[str, str], int] = {}
         for connection in reader.connections:
             key = (connection.topic, connection.msgtype)
@@ -128,4 +158,5 @@ def read_summary(path: str | Path) -> BagSummary:
             end_ns=reader.end_time - 1 if reader.message_count else 0,  # rosbags: exclusive
             episodes=tuple(episodes),
             episode_topic=episode_topic,
+            unfinished=getattr(reader, "unfinished", False),
         )
