@@ -2,7 +2,9 @@
 
 - :mod:`~bubblerob_env.ros.live.backend`: what a ROS client library must offer; errors.
 - :mod:`~bubblerob_env.ros.live.ros1` (``rospy``), :mod:`~bubblerob_env.ros.live.ros2`
-  (``rclpy``, untested): the backends, publishing pre-serialised bytes.
+  (``rclpy``): the backends, publishing pre-serialised bytes.
+- :mod:`~bubblerob_env.ros.live.ros2_msgs`: builds ``tf2_msgs`` (no wheel) into a pip-installed
+  ROS 2.
 - :mod:`~bubblerob_env.ros.live.sink`: ``LiveSink``, the bag-sink interface on live topics.
 - :mod:`~bubblerob_env.ros.live.wrapper`: ``RosLivePublisher``, publishing any RL loop.
 - :mod:`~bubblerob_env.ros.live.controls`: wheel commands, watchdog, switches, sim control input.
