@@ -243,3 +243,17 @@ def test_long_random_runs_stay_far_inside_the_small_arena():
         most = max(most, *(env.data.maxuse_arena for env in envs.envs))
     assert 0 < most < ARENA_MEMORY // 8
     envs.close()
+
+
+def test_render_gives_each_robots_frame():
+    envs = _make_vec(2, render_mode="rgb_array", render_width=32, render_height=24)
+    obs, _ = envs.reset(seed=3)
+    envs.step(np.zeros((2, 2), np.float32))
+    frames = envs.render()
+    assert frames is not None and len(frames) == 2
+    assert all(frame.shape == (24, 32, 3) for frame in frames)
+    plain = gym.make("BubbleRob-v0", render_mode="rgb_array", render_width=32, render_height=24)
+    plain.reset(seed=4)
+    plain.step(np.zeros(2, np.float32))
+    np.testing.assert_array_equal(frames[1], plain.render())
+    envs.close()
