@@ -93,12 +93,12 @@ def check_range_pair(label: str, value: Any, low: float, high: float, *, ints: b
         isinstance(v, kind) and not isinstance(v, bool) and math.isfinite(v)
         for v in (first, second)
     )
-    if not (ok and low <= first <= second <= high):  # type: ignore[operator]
+    if not (ok and low <= first <= second <= high):
         raise ValueError(
             f"{label} must be (min, max) {'ints' if ints else 'numbers'} with "
             f"{low} <= min <= max <= {high}, got {value!r}"
         )
-    return (int(first), int(second)) if ints else (float(first), float(second))  # type: ignore[arg-type]
+    return (int(first), int(second)) if ints else (float(first), float(second))
 
 
 def check_start_pose(

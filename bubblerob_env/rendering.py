@@ -93,7 +93,8 @@ class OverheadRenderer:
                 )
                 mujoco.mjv_connector(ray, mujoco.mjtGeom.mjGEOM_LINE, 1.0, laser_origin, point)
                 scene.ngeom += 1
-        return self._renderer.render()
+        frame: NDArray[np.uint8] = self._renderer.render()
+        return frame
 
     def close(self) -> None:
         """Free the OpenGL context."""

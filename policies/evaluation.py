@@ -12,6 +12,7 @@ from typing import Any, Protocol
 import gymnasium as gym
 import numpy as np
 
+from bubblerob_env import BubbleRobEnv
 from policies.loading import load_policy
 
 __all__ = [
@@ -63,6 +64,13 @@ class FrameSink(Protocol):
         """Take one frame."""
 
 
+def _frame(env: gym.Env[Any, Any]) -> np.ndarray:
+    frame = env.render()
+    if not isinstance(frame, np.ndarray):
+        raise ValueError(f"recording frames needs render_mode='rgb_array', got {env.render_mode!r}")
+    return frame
+
+
 def run_episode(
     env: gym.Env[Any, Any], policy: Any, seed: int, frames: FrameSink | None = None
 ) -> EpisodeStats:
@@ -73,10 +81,13 @@ def run_episode(
     """
     obs, _ = env.reset(seed=seed)
     if frames is not None:
-        frames.append(env.render())
+        frames.append(_frame(env))
     episode_start = True
     total, speeds = 0.0, []
-    max_speed = env.unwrapped.max_linear_speed
+    base = env.unwrapped
+    if not isinstance(base, BubbleRobEnv):
+        raise TypeError(f"expected a BubbleRob env, got {type(base).__name__}")
+    max_speed = base.max_linear_speed
     while True:
         action, _ = policy.predict(obs, episode_start=np.array([episode_start]), deterministic=True)
         episode_start = False
@@ -84,7 +95,7 @@ def run_episode(
         total += float(reward)
         speeds.append(float(info["body_twist"][0]) / max_speed)
         if frames is not None:
-            frames.append(env.render())
+            frames.append(_frame(env))
         if terminated or truncated:
             break
     return EpisodeStats(

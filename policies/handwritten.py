@@ -130,7 +130,8 @@ class LaserPolicy(_Policy):
         along = r[None, :] * np.cos(self._relative)
         across = np.abs(r[None, :] * np.sin(self._relative))
         blocks = (across < self.half_width) & (along > 0) & (r[None, :] < self.laser_spec.range_max)
-        return np.where(blocks, along, self.horizon).min(axis=1).clip(max=self.horizon)
+        free: NDArray[np.float64] = np.where(blocks, along, self.horizon).min(axis=1)
+        return free.clip(max=self.horizon)
 
     def _act(self, obs: Observation, memory: float) -> tuple[NDArray[np.float32], float]:
         free = self.free_length(obs["laser"])
