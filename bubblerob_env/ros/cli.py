@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import shlex
+import sqlite3
 import sys
 from datetime import datetime, timezone
 from pathlib import Path
@@ -119,6 +120,23 @@ def _record(args: argparse.Namespace) -> int:
         env.close()
         print(f"bubblerob record: {error}", file=sys.stderr)
         return 2
+    done, total_steps = 0, 0
+    try:
+        done, total_steps = _run_episodes(args, recorder, policy)
+    except KeyboardInterrupt:
+        print(f"\nstopped: {_saved(recorder, args)}", file=sys.stderr)
+        return 130
+    except (OSError, sqlite3.Error) as error:  # disk full: the bag is finished with what fit
+        print(f"bubblerob record: {_io_error(error)}; {_saved(recorder, args)}", file=sys.stderr)
+        return 1
+    print(f"recorded {done} episode(s), {total_steps} steps to {_where(recorder, args)}")
+    return 0
+
+
+def _run_episodes(
+    args: argparse.Namespace, recorder: RosBagRecorder, policy: Any
+) -> tuple[int, int]:
+    """Record ``args.episodes`` episodes; ``(episodes, steps)``. The recorder is closed after."""
     from tqdm import tqdm
 
     progress = tqdm(total=args.episodes, unit="episode", disable=args.no_progress, file=sys.stderr)
@@ -138,10 +156,25 @@ def _record(args: argparse.Namespace) -> int:
             total_steps += steps
             progress.set_postfix(steps=total_steps, last_return=f"{ret:.1f}")
             progress.update()
+    return args.episodes, total_steps
+
+
+def _where(recorder: RosBagRecorder, args: argparse.Namespace) -> Path:
     paths = recorder.bag_paths
-    where = paths[0] if len(paths) == 1 else args.out / name
-    print(f"recorded {args.episodes} episode(s), {total_steps} steps to {where}")
-    return 0
+    return paths[0] if len(paths) == 1 else recorder.path
+
+
+def _saved(recorder: RosBagRecorder, args: argparse.Namespace) -> str:
+    """What an interrupted recording kept, in words (the recorder has closed the bag)."""
+    complete = recorder.completed_episodes
+    return f"{complete} complete episode(s) saved to {_where(recorder, args)}"
+
+
+def _io_error(error: OSError | sqlite3.Error) -> str:
+    if not isinstance(error, OSError):
+        return f"sqlite3: {error}"
+    where = f" ({error.filename})" if error.filename else ""
+    return f"{error.strerror or error}{where}"
 
 
 def _info(args: argparse.Namespace) -> int:

@@ -112,6 +112,8 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
         self._fanout.serializer(self.distro)  # compile now: errors before the first step
         self._episodes: list[dict[str, Any]] = []
         self._episode_count = 0
+        self.completed_episodes = 0
+        """Episodes recorded to their end (terminated or truncated), in every bag so far."""
         self.start_time_ns = start_time_ns(start_time)
         self._stream = EpisodeStream(self._fanout, self._dt_ns, self.start_time_ns)
         self._sink: BagSink | None = None
@@ -164,8 +166,10 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
         """Close the bag (atexit and signal paths); the env is left alone."""
         if not self._closed:
             self._closed = True
-            self._close_bag()
-            safety.unregister(self._token)
+            try:
+                self._close_bag()
+            finally:  # even when the disk is full: the handlers go back
+                safety.unregister(self._token)
 
     # -- gym API --------------------------------------------------------------------------------
 
@@ -195,6 +199,7 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
             if (terminated or truncated) and self._sink is not None:
                 self._fanout.flush()  # batched frames, then the sink's chunk: on disk
                 self._sink.flush()
+                self.completed_episodes += 1
         return obs, float(reward), terminated, truncated, info
 
     def close(self) -> None:

@@ -30,6 +30,7 @@ from rosbags.interfaces import (
 )
 from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin
 
+from bubblerob_env.ros.bags.lock import BagLock, BagLockedError
 from bubblerob_env.ros.bags.writers import (
     PackedBatchWriter,
     PackedWriter,
@@ -121,6 +122,8 @@ class BagSink:
         self.distro = distro
         self.closed = False
         self._connections: dict[str, Connection] = {}
+        self.lock: BagLock | None = None
+        """This process's lock on the bag (:func:`open_bag` takes it, ``close`` gives it back)."""
 
     def add_topic(self, topic: str, msgtype: str, latched: bool = False) -> None:
         """Declare ``topic`` with type ``msgtype`` (the distro's definition goes in the bag)."""
@@ -206,7 +209,11 @@ class _Ros1Sink(BagSink):
     def close(self) -> None:
         if not self.closed:
             self.closed = True
-            self._writer.close()
+            try:
+                self._writer.close()
+            finally:
+                if self.lock is not None:
+                    self.lock.release()
 
 
 def _qos(latched: bool) -> list[Qos]:
@@ -280,7 +287,11 @@ class _Rosbag2Sink(BagSink):
     def close(self) -> None:
         if not self.closed:
             self.closed = True
-            self._writer.close()
+            try:
+                self._writer.close()
+            finally:
+                if self.lock is not None:
+                    self.lock.release()
 
 
 def open_bag(
@@ -321,12 +332,33 @@ def open_bag(
             f"format {fmt!r} offers compression {list(COMPRESSIONS[fmt])}, got {compression!r}"
         )
     target = bag_path(path, fmt)
-    _prepare(target, overwrite)
+    lock = _lock(target)
     try:
+        _prepare(target, overwrite)
+        sink: BagSink
         if fmt == "ros1":
-            return _Ros1Sink(target, distro, compression, chunk_size)
-        return _Rosbag2Sink(target, fmt, distro, compression, chunk_size)
+            sink = _Ros1Sink(target, distro, compression, chunk_size)
+        else:
+            sink = _Rosbag2Sink(target, fmt, distro, compression, chunk_size)
     except (OSError, sqlite3.Error, rosbag1.WriterError, rosbag2.WriterError) as error:
+        lock.release()
         if target.is_dir() and not any(target.iterdir()):
             target.rmdir()  # do not leave an empty "bag" behind
+        if isinstance(error, (FileExistsError, BagPathError)):
+            raise  # from _prepare: the message says it all
         raise BagPathError(f"cannot write bag {target}: {error}") from error
+    except BaseException:
+        lock.release()
+        raise
+    sink.lock = lock
+    return sink
+
+
+def _lock(target: Path) -> BagLock:
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        return BagLock(target)
+    except BagLockedError:
+        raise
+    except OSError as error:
+        raise BagPathError(f"cannot create bag {target}: {error.strerror or error}") from error
