@@ -48,6 +48,7 @@ from bubblerob_env.sensors import (
     StaticTransform,
     static_transforms,
 )
+from bubblerob_env.specs import EnvSpecs
 
 __all__ = ["ACTION_TYPES", "BubbleRobEnv"]
 
@@ -340,6 +341,17 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
             )
             self._camera = CameraSensor(self.model, self.camera_spec)
         self.static_transforms: tuple[StaticTransform, ...] = static_transforms(self.model)
+        self.specs = EnvSpecs(
+            self.laser_spec,
+            self.proximity_spec,
+            self.camera_spec,
+            self.static_transforms,
+            self.drive,
+            self.action_type,
+            self.max_linear_speed,
+            self.max_angular_speed,
+        )
+        """The env's own description as plain data (what the ROS layer and policies read)."""
 
         # A list: indexing it with a few contacts' geom ids is faster than numpy fancy indexing.
         self._is_obstacle: list[bool] = (self.model.geom_group == names.OBSTACLE_GROUP).tolist()

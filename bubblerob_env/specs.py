@@ -31,15 +31,8 @@ class EnvSpecs:
 
     @classmethod
     def from_env(cls, env: Any) -> EnvSpecs:
-        """Read the specs of a ``BubbleRobEnv`` (or any wrapper around one)."""
-        base = env.unwrapped
-        return cls(
-            base.laser_spec,
-            base.proximity_spec,
-            base.camera_spec,
-            tuple(base.static_transforms),
-            base.drive,
-            base.action_type,
-            float(base.max_linear_speed),
-            float(base.max_angular_speed),
-        )
+        """The specs of a ``BubbleRobEnv`` (or any wrapper around one): ``env.unwrapped.specs``."""
+        specs = env.unwrapped.specs
+        if not isinstance(specs, cls):
+            raise TypeError(f"expected a BubbleRob env, got {type(env.unwrapped).__name__}")
+        return specs
