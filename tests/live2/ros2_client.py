@@ -162,6 +162,10 @@ def cmd_echo(node, args):
         t: qos_of(node, t)
         for t in (ns(args, "scan"), ns(args, "odom"), "/tf", "/tf_static", "/clock")
     }
+    out["type_hash"] = {
+        t: [str(i.topic_type_hash) for i in node.get_publishers_info_by_topic(t)]
+        for t in ("/tf", "/tf_static", ns(args, "odom"))
+    }
     # a subscription with the default (reliable) QoS does not match a sensor-data publisher
     reliable = Counter(node, ns(args, "scan"), LaserScan, qos=10)
     time.sleep(1.0)

@@ -7,6 +7,9 @@ import math
 import pytest
 from ros2_helpers import client, wait_for
 
+TF_HASH = "RIHS01_e369d0f05a23ae52508854b66f6aa0437f3449d652e8cbf22d5abe85d020f087"
+"""``tf2_msgs/msg/TFMessage``'s type hash in ROS 2 Jazzy (and Kilted, Lyrical)."""
+ODOM_HASH = "RIHS01_3cc97dc7fb7502f8714462c526d369e35b603cfc34d946e3f2eda2766dfec6e0"
 NODE_ARGS = ["--camera", "--env", "num_obstacles=[0,0]", "--env", "start_pose=[0,0,0]"]
 
 
@@ -37,6 +40,10 @@ def test_echo_scan_odom_tf_clock_image_with_their_qos_and_sim_time(node):
     assert qos["/tf_static"] == [["RELIABLE", "TRANSIENT_LOCAL"]]
     assert qos["/clock"] == [["RELIABLE", "VOLATILE"]]
     assert out["reliable_scan"] == 0  # as for any sensor-data publisher
+    # tf2_msgs, built here from its .msg, has the type hash of Jazzy's own (`ros2 topic info -v
+    # /tf` on any Jazzy tf2 node), so real tf2 listeners and rviz2 match it
+    assert out["type_hash"]["/tf"] == out["type_hash"]["/tf_static"] == [TF_HASH]
+    assert out["type_hash"]["/odom"] == [ODOM_HASH]
 
 
 def test_scan_rate_is_near_20_hz(node):
