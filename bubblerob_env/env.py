@@ -424,7 +424,7 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
     @property
     def dt(self) -> float:
         """Seconds of simulated time per ``step``."""
-        return self.model.opt.timestep * self.physics_substeps
+        return float(self.model.opt.timestep) * self.physics_substeps
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None

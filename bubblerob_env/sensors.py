@@ -211,7 +211,9 @@ def static_transforms(model: mujoco.MjModel) -> tuple[StaticTransform, ...]:
     base_pos = data.xpos[base]
     base_rot = data.xmat[base].reshape(3, 3)
 
-    def relative(pos: NDArray[np.float64], rot: NDArray[np.float64]):
+    def relative(
+        pos: NDArray[np.float64], rot: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         return base_rot.T @ (pos - base_pos), base_rot.T @ rot
 
     transforms = []
@@ -371,7 +373,8 @@ class CameraSensor:
         if self._renderer is None:
             self._renderer = self._make_renderer()
         self._renderer.update_scene(data, camera=self._camera, scene_option=self._option)
-        return self._renderer.render()
+        frame: NDArray[np.uint8] = self._renderer.render()
+        return frame
 
     def close(self) -> None:
         """Free the OpenGL context, if one was made."""

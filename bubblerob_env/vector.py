@@ -163,7 +163,11 @@ class BubbleRobVectorEnv(VectorEnv[dict[str, NDArray[Any]], NDArray[np.float32],
     def step(
         self, actions: NDArray[np.float32]
     ) -> tuple[
-        dict[str, NDArray[Any]], NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_], dict
+        dict[str, NDArray[Any]],
+        NDArray[np.float64],
+        NDArray[np.bool_],
+        NDArray[np.bool_],
+        dict[str, Any],
     ]:
         """Step every robot with its row of ``actions`` (shape ``(num_envs, 2)``)."""
         obs, rewards, terminated, truncated, infos, finals = self.step_robots(actions)

@@ -26,7 +26,8 @@ def test_ruff_is_clean():
     assert result.returncode == 0, result.stdout + result.stderr
 
 
-def test_mypy_is_clean_on_the_env_package():
+def test_mypy_strict_is_clean_on_the_packages():
+    # pyproject's [tool.mypy]: strict, on bubblerob_env, policies and train.
     result = subprocess.run(
         [_tool("mypy")], cwd=ROOT, capture_output=True, text=True, check=False, timeout=600
     )

@@ -127,7 +127,7 @@ def find_episodes(reader: Any) -> tuple[str | None, list[dict[str, Any]]]:
         episodes = []
         for conn, _, raw in reader.messages(connections=[connection]):
             try:
-                data = json.loads(reader.deserialize(raw, conn.msgtype).data)  # type: ignore[attr-defined]
+                data = json.loads(reader.deserialize(raw, conn.msgtype).data)
             except (ValueError, AttributeError):
                 break
             if not isinstance(data, dict) or "start_time_ns" not in data or "episode" not in data:
