@@ -3,14 +3,17 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
+
+from bubblerob_env.arena import ROBOT_RADIUS
 
 __all__ = [
     "MAX_IMAGE_SIZE",
     "MAX_OBSTACLES",
     "MAX_PHYSICS_TIMESTEP",
     "check_choice",
+    "check_env_arguments",
     "check_finite",
     "check_image_size",
     "check_int_range",
@@ -119,3 +122,51 @@ def check_start_pose(
             f"{arena_size} m"
         )
     return (x, y, yaw)
+
+
+def check_env_arguments(
+    args: Mapping[str, Any],
+    action_types: Sequence[str],
+    radiation_types: Sequence[str],
+    render_modes: Sequence[str],
+) -> None:
+    """Every ``BubbleRobEnv`` keyword argument, by name: the first bad one raises ``ValueError``.
+
+    The sensor specs (``LaserSpec``, ``ProximitySpec``, ``CameraSpec``) check their own fields
+    when the env builds them; ``start_pose`` is checked by :func:`check_start_pose`.
+    """
+    check_choice("action_type", args["action_type"], action_types)
+    check_choice("proximity_radiation_type", args["proximity_radiation_type"], radiation_types)
+    check_choice("render_mode", args["render_mode"], (None, *render_modes))
+    control_timestep = check_positive("control_timestep", args["control_timestep"])
+    substeps = check_int_range("physics_substeps", args["physics_substeps"], 1)
+    if control_timestep / substeps > MAX_PHYSICS_TIMESTEP:
+        raise ValueError(
+            f"control_timestep / physics_substeps = {control_timestep} / {substeps} "
+            f"s is a physics step MuJoCo cannot integrate reliably here; it must be <= "
+            f"{MAX_PHYSICS_TIMESTEP} s: use physics_substeps >= "
+            f"{math.ceil(control_timestep / MAX_PHYSICS_TIMESTEP - 1e-9)}"
+        )
+    check_range_pair("num_obstacles", args["num_obstacles"], 0, MAX_OBSTACLES, ints=True)
+    check_range_pair("obstacle_size", args["obstacle_size"], 1e-3, math.inf, ints=False)
+    check_int_range("laser_num_rays", args["laser_num_rays"], 0)
+    for label in ("max_wheel_speed", "arena_size"):
+        check_positive(label, args[label])
+    for label in (
+        "forward_reward_weight",
+        "spin_cost_weight",
+        "clearance_cost_weight",
+        "collision_penalty",
+        "start_clearance",
+    ):
+        check_finite(label, args[label])
+    for label in ("render_width", "render_height"):
+        check_image_size(label, args[label])
+    for label in ("camera_width", "camera_height"):
+        if args[label] is not None:
+            check_image_size(label, args[label])
+    if not check_finite("clearance_distance", args["clearance_distance"]) > ROBOT_RADIUS:
+        raise ValueError(
+            f"clearance_distance must be > the robot radius {ROBOT_RADIUS} m, "
+            f"got {args['clearance_distance']!r}"
+        )

@@ -24,14 +24,8 @@ from bubblerob_env.arena import (
     sample_layout,
 )
 from bubblerob_env.checks import (
-    MAX_OBSTACLES,
-    MAX_PHYSICS_TIMESTEP,
-    check_choice,
-    check_finite,
-    check_image_size,
-    check_int_range,
+    check_env_arguments,
     check_positive,
-    check_range_pair,
     check_start_pose,
     unexpected_kwargs_error,
 )
@@ -236,36 +230,14 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
                 if p not in ("self", "unknown_kwargs")
             ]
             raise unexpected_kwargs_error("BubbleRobEnv.__init__", list(unknown_kwargs), valid)
-        check_choice("action_type", action_type, ACTION_TYPES)
-        check_choice("proximity_radiation_type", proximity_radiation_type, RADIATION_TYPES)
-        check_choice("render_mode", render_mode, (None, *self.metadata["render_modes"]))
-        check_positive("control_timestep", control_timestep)
-        check_int_range("physics_substeps", physics_substeps, 1)
-        if control_timestep / physics_substeps > MAX_PHYSICS_TIMESTEP:
-            raise ValueError(
-                f"control_timestep / physics_substeps = {control_timestep} / {physics_substeps} "
-                f"s is a physics step MuJoCo cannot integrate reliably here; it must be <= "
-                f"{MAX_PHYSICS_TIMESTEP} s: use physics_substeps >= "
-                f"{math.ceil(control_timestep / MAX_PHYSICS_TIMESTEP - 1e-9)}"
-            )
-        lo, hi = check_range_pair("num_obstacles", num_obstacles, 0, MAX_OBSTACLES, ints=True)
-        obstacle_size = check_range_pair("obstacle_size", obstacle_size, 1e-3, math.inf, ints=False)
-        check_int_range("laser_num_rays", laser_num_rays, 0)
-        for label, value in (("max_wheel_speed", max_wheel_speed), ("arena_size", arena_size)):
-            check_positive(label, value)
-        for label, value in (
-            ("forward_reward_weight", forward_reward_weight),
-            ("spin_cost_weight", spin_cost_weight),
-            ("clearance_cost_weight", clearance_cost_weight),
-            ("collision_penalty", collision_penalty),
-            ("start_clearance", start_clearance),
-        ):
-            check_finite(label, value)
-        for label, size in (("render_width", render_width), ("render_height", render_height)):
-            check_image_size(label, size)
-        for label, side in (("camera_width", camera_width), ("camera_height", camera_height)):
-            if side is not None:
-                check_image_size(label, side)
+        arguments = {
+            name: value
+            for name, value in locals().items()
+            if name not in ("self", "unknown_kwargs")
+        }
+        check_env_arguments(arguments, ACTION_TYPES, RADIATION_TYPES, self.metadata["render_modes"])
+        lo, hi = num_obstacles
+        obstacle_size = (float(obstacle_size[0]), float(obstacle_size[1]))
 
         self.action_type = action_type
         self.render_mode = render_mode
@@ -280,11 +252,6 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
         self.forward_reward_weight = forward_reward_weight
         self.spin_cost_weight = spin_cost_weight
         self.clearance_cost_weight = clearance_cost_weight
-        if not clearance_distance > ROBOT_RADIUS:
-            raise ValueError(
-                f"clearance_distance must be > the robot radius {ROBOT_RADIUS} m, "
-                f"got {clearance_distance!r}"
-            )
         self.clearance_distance = float(clearance_distance)
         self.collision_penalty = collision_penalty
         self.terminate_on_collision = terminate_on_collision
@@ -311,35 +278,13 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
         check_positive("max_linear_speed", self.max_linear_speed)
         check_positive("max_angular_speed", self.max_angular_speed)
 
-        self.laser_spec = None
-        self._laser = None
-        if laser_num_rays > 0:
-            self.laser_spec = LaserSpec(
-                laser_num_rays,
-                laser_fov,
-                laser_range_min,
-                laser_range_max,
-                laser_noise_std,
-                scan_time=control_timestep,
-            )
-            self._laser = Laser(self.model, self.laser_spec)
-        self.proximity_spec = ProximitySpec(
-            proximity_range_max,
-            proximity_trigger_distance,
-            radiation_type=proximity_radiation_type,
+        self._build_sensors(
+            (laser_num_rays, laser_fov, laser_range_min, laser_range_max, laser_noise_std),
+            (proximity_range_max, proximity_trigger_distance, proximity_radiation_type),
+            (camera_width, camera_height) if camera or camera_width or camera_height else None,
+            camera_shadows,
+            control_timestep,
         )
-        self._proximity = ProximitySensor(self.model, self.proximity_spec)
-        self.camera_spec = None
-        self._camera = None
-        if camera or camera_width is not None or camera_height is not None:
-            self.camera_spec = CameraSpec(
-                camera_width or _DEFAULT_CAMERA_SIZE,
-                camera_height or _DEFAULT_CAMERA_SIZE,
-                float(self.model.cam_fovy[self.model.camera(names.FRONT_CAMERA).id]),
-                shadows=camera_shadows,
-                reflections=camera_shadows,
-            )
-            self._camera = CameraSensor(self.model, self.camera_spec)
         self.static_transforms: tuple[StaticTransform, ...] = static_transforms(self.model)
         self.specs = EnvSpecs(
             self.laser_spec,
@@ -353,6 +298,53 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
         )
         """The env's own description as plain data (what the ROS layer and policies read)."""
 
+        self._index_model()
+        self._build_spaces()
+
+        self._render_size = (render_width, render_height)
+        self._overhead: OverheadRenderer | None = None
+        # The window opens on the first render, but a missing display is reported now.
+        self._viewer: HumanViewer | None = None
+        if render_mode == "human":
+            HumanViewer.require_display()
+        self._last_laser: NDArray[np.float32] | None = None
+        self._clipped_actions = 0
+        self._collided = False
+        self._closed = False
+        self._bind_views()
+
+    def _build_sensors(
+        self,
+        laser: tuple[int, float, float, float, float],
+        proximity: tuple[float, float, str],
+        camera_size: tuple[int | None, int | None] | None,
+        camera_shadows: bool,
+        control_timestep: float,
+    ) -> None:
+        """The laser (none with 0 rays), the nose sensor and the camera (when sized or asked)."""
+        self.laser_spec = None
+        self._laser = None
+        if laser[0] > 0:
+            self.laser_spec = LaserSpec(*laser, scan_time=control_timestep)
+            self._laser = Laser(self.model, self.laser_spec)
+        self.proximity_spec = ProximitySpec(
+            proximity[0], proximity[1], radiation_type=str(proximity[2])
+        )
+        self._proximity = ProximitySensor(self.model, self.proximity_spec)
+        self.camera_spec = None
+        self._camera = None
+        if camera_size is not None:
+            self.camera_spec = CameraSpec(
+                camera_size[0] or _DEFAULT_CAMERA_SIZE,
+                camera_size[1] or _DEFAULT_CAMERA_SIZE,
+                float(self.model.cam_fovy[self.model.camera(names.FRONT_CAMERA).id]),
+                shadows=camera_shadows,
+                reflections=camera_shadows,
+            )
+            self._camera = CameraSensor(self.model, self.camera_spec)
+
+    def _index_model(self) -> None:
+        """Ids and sensordata addresses the step path reads."""
         # A list: indexing it with a few contacts' geom ids is faster than numpy fancy indexing.
         self._is_obstacle: list[bool] = (self.model.geom_group == names.OBSTACLE_GROUP).tolist()
         self._base = self.model.body(names.BASE_BODY).id
@@ -379,13 +371,17 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
         ]
         self._wheel_idx = np.array(self._wheel_adr)
 
+    def _build_spaces(self) -> None:
+        """Action and observation spaces, from the sensor specs and the speed limits."""
         self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
         self._velocity_limit = np.array([2 * self.max_linear_speed, 2 * self.max_angular_speed])
         self._velocity_low = -self._velocity_limit
         obs_spaces: dict[str, spaces.Space[Any]] = {}
         if self.laser_spec is not None:
-            obs_spaces["laser"] = spaces.Box(0.0, laser_range_max, (laser_num_rays,), np.float32)
-        obs_spaces["proximity"] = spaces.Box(0.0, proximity_range_max, (1,), np.float32)
+            laser = self.laser_spec
+            obs_spaces["laser"] = spaces.Box(0.0, laser.range_max, (laser.num_rays,), np.float32)
+        proximity_max = self.proximity_spec.range_max
+        obs_spaces["proximity"] = spaces.Box(0.0, proximity_max, (1,), np.float32)
         obs_spaces["velocity"] = spaces.Box(
             -self._velocity_limit.astype(np.float32),
             self._velocity_limit.astype(np.float32),
@@ -395,18 +391,6 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
             shape = (self.camera_spec.height, self.camera_spec.width, 3)
             obs_spaces["camera"] = spaces.Box(0, 255, shape, np.uint8)
         self.observation_space = spaces.Dict(obs_spaces)  # type: ignore[assignment]
-
-        self._render_size = (render_width, render_height)
-        self._overhead: OverheadRenderer | None = None
-        # The window opens on the first render, but a missing display is reported now.
-        self._viewer: HumanViewer | None = None
-        if render_mode == "human":
-            HumanViewer.require_display()
-        self._last_laser: NDArray[np.float32] | None = None
-        self._clipped_actions = 0
-        self._collided = False
-        self._closed = False
-        self._bind_views()
 
     def _bind_views(self) -> None:
         # Views into self.data for the step path; rebuilt after unpickling (a copy has new data).
