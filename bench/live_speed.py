@@ -7,7 +7,9 @@ subscriber process (Debian's ``/usr/bin/python3`` + ``rospy``, raw ``AnyMsg`` on
 node publishes) connects first, then starts the node's simulation (``startSimulation``); the node
 runs ``N`` steps flat out. Reported: the env alone (no ROS, same process), the node's steps/s and
 messages published/s, and the messages/s received with the share of published ones that arrived.
-Needs Debian's ROS 1 (``python3-rospy``, ``python3-rosmaster``, ``python3-std-msgs``).
+Needs Debian's ROS 1 (``python3-rospy``, ``python3-rosmaster``, ``python3-std-msgs``). Where
+README's ``.venv-ros2`` exists, the same again on ROS 2: the node and an rclpy subscriber (raw
+subscriptions, sensor-data QoS for sensors, reliable for the rest) run with its python.
 """
 
 from __future__ import annotations
@@ -61,6 +63,51 @@ SUBSCRIBER = textwrap.dedent(
         print(json.dumps({"counts": counts, "first": times[0], "last": times[-1]}), flush=True)
     """
 )
+SUBSCRIBER2 = textwrap.dedent(
+    """
+    import json, sys, threading, time
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.qos import QoSProfile, qos_profile_sensor_data
+    from std_msgs.msg import Bool
+    steps = int(sys.argv[1]); topics = [t.split("=") for t in sys.argv[2:]]
+    rclpy.init(); node = rclpy.create_node("bench_subscriber")
+    lock = threading.Lock(); counts = {t: 0 for t, _ in topics}; times = []
+    def make(topic):
+        def cb(_):
+            with lock:
+                counts[topic] += 1
+                times.append(time.perf_counter())
+        return cb
+    sensors = {"LaserScan", "Range", "Image", "CameraInfo"}
+    for topic, msgtype in topics:
+        pkg, _, name = msgtype.split("/")
+        cls = getattr(__import__(pkg + ".msg", fromlist=[name]), name)
+        qos = qos_profile_sensor_data if name in sensors else QoSProfile(depth=1000)
+        node.create_subscription(cls, topic, make(topic), qos, raw=True)
+    start = node.create_publisher(Bool, "/startSimulation", 10)
+    executor = SingleThreadedExecutor(); executor.add_node(node)
+    spinner = threading.Thread(target=executor.spin, daemon=True); spinner.start()
+    end = time.monotonic() + 60
+    while (min(node.count_publishers(t) for t, _ in topics) < 1
+           or start.get_subscription_count() < 1):
+        if time.monotonic() > end:
+            sys.exit("the node did not connect")
+        time.sleep(0.01)
+    time.sleep(0.5)  # discovery settles both ways
+    start.publish(Bool(data=True))
+    done_topic = [t for t, _ in topics if t.endswith("simulationStepDone")][0]
+    last = time.monotonic() + 120
+    while counts[done_topic] < steps and time.monotonic() < last:
+        time.sleep(0.05)
+    time.sleep(1.0)  # stragglers on other writers
+    with lock:
+        print(json.dumps({"counts": counts, "first": times[0], "last": times[-1]}), flush=True)
+    executor.shutdown(); spinner.join(5); node.destroy_node(); rclpy.try_shutdown()
+    """
+)
+ROS2_PYTHON = Path(__file__).resolve().parents[1] / ".venv-ros2" / "bin" / "python"
+"""README's ROS 2 virtualenv (rclpy from the ros-jazzy wheels): the ROS 2 rows run there."""
 TOPICS = [
     "/scan", "/proximity", "/sensorTrigger", "/odom", "/tf", "/clock", "/simulationTime",
     "/reward", "/terminated", "/truncated", "/bubblerob/action", "/simulationStepDone",
@@ -89,26 +136,44 @@ def env_alone(camera: bool, steps: int) -> float:
     return rate
 
 
-def run_node(camera: bool, steps: int, ros_env: dict[str, str], home: Path) -> dict[str, float]:
+def run_node(
+    camera: bool, steps: int, ros_env: dict[str, str], home: Path, ros: int = 1
+) -> dict[str, float]:
     """One node run with a subscriber; its rates."""
     topics = TOPICS + (CAMERA_TOPICS if camera else [])
-    debian = {"PATH": "/usr/bin:/bin", "HOME": str(home), **ros_env}
-    subscriber = subprocess.Popen(
-        ["/usr/bin/python3", "-c", SUBSCRIBER, str(steps), *topics],
-        env=debian,
-        stdout=subprocess.PIPE,
-        text=True,
-    )
     args = ["--rate-factor", "max", "--start", "stopped", "--steps", str(steps), "--watchdog", "0"]
     args += ["--camera"] if camera else []
+    if ros == 1:
+        python = sys.executable
+        subscriber = subprocess.Popen(
+            ["/usr/bin/python3", "-c", SUBSCRIBER, str(steps), *topics],
+            env={"PATH": "/usr/bin:/bin", "HOME": str(home), **ros_env},
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+    else:
+        from bubblerob_env.ros.messages.topics import MSGTYPES, Topics
+
+        keys = {name: key for key, name in Topics().resolved().items()}
+        typed = [f"{t}={MSGTYPES[keys[t]] if t in keys else 'std_msgs/msg/Bool'}" for t in topics]
+        python, args = str(ROS2_PYTHON), ["--ros", "2", *args]
+        subscriber = subprocess.Popen(
+            [python, "-c", SUBSCRIBER2, str(steps), *typed],
+            env={**os.environ, **ros_env},
+            stdout=subprocess.PIPE,
+            text=True,
+        )
     node = subprocess.run(
-        [sys.executable, "-m", "bubblerob_env.cli", "node", *args],
+        [python, "-m", "bubblerob_env.cli", "node", *args],
         env={**os.environ, **ros_env},
         capture_output=True,
         text=True,
         timeout=300,
-        check=True,
+        check=False,
     )
+    if node.returncode != 0:
+        subscriber.kill()
+        raise RuntimeError(f"the node failed ({node.returncode}):\n{node.stdout}{node.stderr}")
     out, _ = subscriber.communicate(timeout=150)
     report = json.loads(out.strip().splitlines()[-1])
     match = re.search(r"(\d+) steps in ([\d.]+) s .* (\d+) messages published", node.stdout)
@@ -150,6 +215,23 @@ def main() -> None:
         master.terminate()
         master.wait(10)
     print(f"bubblerob node --rate-factor max, {steps} steps per run, ROS 1 (Debian rospy)")
+    print_table(rows)
+    if not ROS2_PYTHON.exists():
+        print(f"\nROS 2: skipped, no {ROS2_PYTHON} (README: Live on a ROS 2 graph)")
+        return
+    # ROS 2: DDS on the loopback only, in a domain of its own
+    ros2_env = {"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST", "ROS_DOMAIN_ID": str(port % 100 + 1)}
+    rows = []
+    for camera in (False, True):
+        alone = env_alone(camera, steps)
+        rows.append((camera, alone, run_node(camera, steps, ros2_env, home, ros=2)))
+    print(f"\n{steps} steps per run, ROS 2 Jazzy (rclpy 7.1.6, Fast DDS; sensor-data QoS for")
+    print("sensors: best effort, so a subscriber that falls behind loses some)")
+    print_table(rows)
+
+
+def print_table(rows: list[tuple[bool, float, dict[str, float]]]) -> None:
+    """The Markdown table of node runs."""
     header = ("camera", "env alone steps/s", "node steps/s", "published msg/s", "received msg/s",
               "received")  # fmt: skip
     print("| " + " | ".join(header) + " |")
