@@ -213,7 +213,8 @@ def _info(args: argparse.Namespace) -> int:
 def _utc(ns: int) -> str:
     """A stamp as a UTC date with milliseconds (and its Unix seconds)."""
     date = datetime.fromtimestamp(ns // 10**9, timezone.utc).strftime("%Y-%m-%d %H:%M:%S")
-    return f"{date}.{ns % 10**9 // 10**6:03d} UTC ({ns / 1e9:.3f} s)"
+    millis = f"{ns % 10**9 // 10**6:03d}"
+    return f"{date}.{millis} UTC ({ns // 10**9}.{millis} s)"
 
 
 def _replay(args: argparse.Namespace) -> int:

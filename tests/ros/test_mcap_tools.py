@@ -41,3 +41,65 @@ def test_sqlite3_bag_reads_with_rosbags(record):
     messages = read_all(path)
     assert len(messages["/scan"]) == len(messages["/cmd_vel"]) + 2
     assert (path / "metadata.yaml").exists() and any(path.glob("*.db3"))
+
+
+LASER_SCAN_RIHS01 = "RIHS01_64c191398013af96509d518dac71d5164f9382553fce5c1f8cca5be7924bd828"
+"""sensor_msgs/msg/LaserScan's type hash as Jazzy's rosidl generates it (published code)."""
+
+
+@pytest.mark.parametrize("distro", ["jazzy", "humble"])
+def test_channels_carry_jazzys_topic_type_hash(record, distro):
+    from bubblerob_env.ros.messages.distros import message_definition
+
+    path = record("mcap", "zstd", steps=3, distro=distro)
+    (storage,) = path.glob("*.mcap")
+    with storage.open("rb") as stream:
+        summary = make_reader(stream).get_summary()
+    assert summary is not None and summary.channels
+    for channel in summary.channels.values():
+        schema = summary.schemas[channel.schema_id]
+        assert "offered_qos_profiles" in channel.metadata
+        if distro == "jazzy":  # rosbag2 reads it into topic_metadata.type_description_hash
+            assert channel.metadata["topic_type_hash"] == message_definition(distro, schema.name)[1]
+        else:  # Humble has no type hashes
+            assert "topic_type_hash" not in channel.metadata
+    if distro == "jazzy":
+        scan = next(c for c in summary.channels.values() if c.topic == "/scan")
+        assert scan.metadata["topic_type_hash"] == LASER_SCAN_RIHS01
+
+
+@pytest.mark.parametrize("compression", ["zstd", "none"])
+def test_crcs_are_written_and_catch_corruption(record, compression):
+    import struct
+    import zlib
+    from io import BytesIO
+
+    from mcap.records import Chunk, DataEnd, Footer
+    from mcap.stream_reader import CRCValidationError, StreamReader
+
+    path = record("mcap", compression, episodes=2, steps=30)
+    (storage,) = path.glob("*.mcap")
+    data = storage.read_bytes()
+    with storage.open("rb") as stream:  # the mcap package checks chunk and data section CRCs
+        records = list(StreamReader(stream, validate_crcs=True, emit_chunks=True).records)
+    chunks = [r for r in records if isinstance(r, Chunk)]
+    (data_end,) = [r for r in records if isinstance(r, DataEnd)]
+    (footer,) = [r for r in records if isinstance(r, Footer)]
+    assert chunks and all(c.uncompressed_crc for c in chunks) and data_end.data_section_crc
+    # The summary CRC (the mcap package does not check it): summary start .. the footer's field.
+    end = len(data) - 8 - 4
+    assert footer.summary_crc == zlib.crc32(data[footer.summary_start : end]) != 0
+    assert struct.unpack_from("<I", data, end)[0] == footer.summary_crc
+    first_chunk = 8
+    while (op_length := struct.unpack_from("<BQ", data, first_chunk))[0] != 0x06:
+        first_chunk += 9 + op_length[1]
+    length = op_length[1]
+    message_index = first_chunk + 9 + length
+    assert data[message_index] == 0x07
+    for at, what in ((message_index + 9 + 6 + 4, "DataEnd"), (message_index - 1, "Chunk")):
+        if what == "Chunk" and compression != "none":
+            continue  # a flipped byte in zstd data fails zstd's own checks first
+        corrupt = bytearray(data)
+        corrupt[at] ^= 0xFF  # a log time of a message index; the last byte of a message
+        with pytest.raises(CRCValidationError, match=f"in {what}"):
+            list(StreamReader(BytesIO(bytes(corrupt)), validate_crcs=True).records)

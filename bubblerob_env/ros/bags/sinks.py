@@ -17,6 +17,7 @@ import shutil
 import sqlite3
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Literal
 
 from rosbags import rosbag1, rosbag2
 from rosbags.interfaces import (
@@ -30,6 +31,7 @@ from rosbags.interfaces import (
 )
 from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin
 
+from bubblerob_env.ros.bags.humble import humble_qos
 from bubblerob_env.ros.bags.lock import BagLock, BagLockedError
 from bubblerob_env.ros.bags.writers import (
     PackedBatchWriter,
@@ -246,7 +248,10 @@ class _Rosbag2Sink(BagSink):
         super().__init__(path, fmt, distro)
         self._ids: dict[str, int] = {}
         plugin = StoragePlugin.MCAP if fmt == "mcap" else StoragePlugin.SQLITE3
-        self._writer = Rosbag2Writer(path, version=9, storage_plugin=plugin)
+        self._humble = distro == "humble"  # Humble's format: see bags/humble.py
+        version: Literal[8, 9] = 8 if self._humble else 9
+        self._writer = Rosbag2Writer(path, version=version, storage_plugin=plugin)
+        self._writer.humble = self._humble
         if compression == "zstd":  # MCAP chunk compression, as `ros2 bag record` does it
             self._writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
         self._writer.open()
@@ -257,7 +262,11 @@ class _Rosbag2Sink(BagSink):
     def add_topic(self, topic: str, msgtype: str, latched: bool = False) -> None:
         text, digest = message_definition(self.distro, msgtype)
         self._connections[topic] = self._writer.add_connection(
-            topic, msgtype, msgdef=text, rihs01=digest, offered_qos_profiles=_qos(latched)
+            topic,
+            msgtype,
+            msgdef=text,
+            rihs01=digest,
+            offered_qos_profiles=humble_qos(latched) if self._humble else _qos(latched),
         )
         self._ids[topic] = self._connections[topic].id
 

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import struct
 import sys
+import zlib
 from collections import defaultdict
 from collections.abc import Callable, Sequence
 from io import BytesIO
@@ -30,13 +31,16 @@ import lz4.frame
 import numpy as np
 from numpy.typing import NDArray
 from rosbags import rosbag1, rosbag2
+from rosbags.interfaces import Connection
 from rosbags.rosbag1 import writer as _rosbag1_writer
 from rosbags.rosbag1.reader import RecordType
 from rosbags.rosbag1.writer import Header, WriteChunk
 from rosbags.rosbag2 import CompressionMode, StoragePlugin
-from rosbags.rosbag2.storage_mcap import McapWriter, PendingChunk
+from rosbags.rosbag2.storage_mcap import McapWriter, PendingChunk, write_channel
 from rosbags.rosbag2.storage_sqlite3 import Sqlite3Writer
 
+from bubblerob_env.ros.bags.humble import rewrite_metadata
+from bubblerob_env.ros.bags.mcap_crc import seal
 from bubblerob_env.ros.fastpath.framing import (
     NO_TIME,
     Frame,
@@ -75,7 +79,8 @@ RELIED_ON: dict[Any, tuple[str, ...]] = {
     ),
     McapWriter: (
         "bio", "chunk", "chunks", "channel_stats", "compression", "compressor", "close_chunk",
-        "message_start_time", "message_end_time",
+        "message_start_time", "message_end_time", "channels", "schemas", "path",
+        "add_connection",
     ),
     PendingChunk: ("message_start_time", "message_end_time", "bio", "msgs"),
     Sqlite3Writer: ("cursor", "conn"),
@@ -111,10 +116,12 @@ def rosbags_changes() -> list[str]:
             missing += [f"{owner.__qualname__}.{n}" for n in names if not hasattr(where, n)]
     return missing
 
+
 PackedWriter = Callable[[bytes, FrameLayout, int, int], None]
 """``write_packed(data, layout, stamp, action_stamp)`` of a writer."""
 PackedBatchWriter = Callable[[Any, FrameLayout, NDArray[np.int64], NDArray[np.int64]], None]
 """``write_packed_batch(data, layout, stamps, action_stamps)``: ``len(stamps)`` packed frames."""
+
 
 def roslz4_compress(data: bytes) -> bytes:
     """LZ4 frame as ROS 1's ``roslz4`` reads it: independent blocks, no content size, checksum.
@@ -343,6 +350,11 @@ class _Sqlite3Storage(Sqlite3Writer):
         self.conn.commit()
 
 
+def _mcap_string(text: str) -> bytes:
+    data = text.encode()
+    return struct.pack("<I", len(data)) + data
+
+
 def mcap_zstd_compress(data: bytes) -> bytes:
     """Compress with zstd at level 1, the MCAP writer's default (``CompressionLevel::Default``).
 
@@ -365,6 +377,23 @@ class McapStorage(McapWriter):
         """Messages per channel, the writer's (it replaces this dict with its own)."""
         self.packed_start, self.packed_end = 2**63 - 1, 0
         """Lowest and highest log time of the packed frames indexed so far."""
+        self.type_hashes = True
+        """Put each channel's RIHS01 type hash in its metadata (``topic_type_hash``), as
+        rosbag2 does since Iron (metadata version 7); Humble's channels have none."""
+
+    def add_connection(self, connection: Connection, offered_qos_profiles: str) -> None:
+        """Add a channel with ``offered_qos_profiles`` and, if on, ``topic_type_hash``."""
+        channel_at = self.chunk.bio.tell()
+        super().add_connection(connection, offered_qos_profiles)
+        if self.type_hashes and connection.digest:
+            channel = self.channels[-1]
+            metadata = channel.metadata + _mcap_string("topic_type_hash")
+            metadata += _mcap_string(connection.digest)
+            self.channels[-1] = channel._replace(metadata=metadata)
+            chunk = self.chunk.bio  # rewrite the channel record rosbags just put in the chunk
+            chunk.seek(channel_at)
+            chunk.truncate()
+            write_channel(chunk, self.channels[-1], self.schemas)
 
     def write_packed(self, data: bytes, layout: FrameLayout, stamp: int, action_stamp: int) -> None:
         """Append a packed frame (records framed by ``Framing("mcap", ...)``) to the open chunk.
@@ -446,7 +475,7 @@ class McapStorage(McapWriter):
         with chunk.bio.getbuffer() as raw:  # no copy of the chunk (released before it goes)
             compressed = self.compressor(raw)  # type: ignore[arg-type]
             times = (chunk.message_start_time, chunk.message_end_time)
-            head = struct.pack("<QQQI", *times, len(raw), 0)
+            head = struct.pack("<QQQI", *times, len(raw), zlib.crc32(raw))  # rosbags: 0
             body = head + struct.pack("<I", len(encoding)) + encoding
             body += struct.pack("<Q", len(compressed))
             self.bio.write(struct.pack("<BQ", 0x06, len(body) + len(compressed)) + body)
@@ -489,12 +518,15 @@ class Rosbag2Writer(rosbag2.Writer):
     """``rosbags``' ROS 2 writer whose MCAP and sqlite3 storages take batches."""
 
     STORAGE_PLUGINS = {StoragePlugin.SQLITE3: _Sqlite3Storage, StoragePlugin.MCAP: McapStorage}
+    humble = False
+    """Write Humble's format (version 8 here, metadata.yaml rewritten as version 5 at close)."""
 
     def open(self) -> None:
         """Create the bag; the MCAP storage counts packed frames into this writer's counts."""
         super().open()
         if isinstance(self.storage, McapStorage):
             self.storage.counts = self.counts
+            self.storage.type_hashes = self.version >= 7 and not self.humble
 
     def compress_at_level_1(self) -> None:
         """Compress zstd MCAP chunks at level 1 (:func:`mcap_zstd_compress`); after :meth:`open`."""
@@ -548,13 +580,20 @@ class Rosbag2Writer(rosbag2.Writer):
         self.packed_writer()(data, layout, stamp, action_stamp)
 
     def close(self) -> None:
-        """Index pending packed frames (counts and times go into metadata.yaml), then close."""
+        """Index pending packed frames (counts and times go into metadata.yaml), then close.
+
+        MCAP: then write the file's CRCs (:func:`~bubblerob_env.ros.bags.mcap_crc.seal`).
+        """
         storage = self.storage
         if isinstance(storage, McapStorage):
             storage.index_pending()
             self.min_timestamp = min(self.min_timestamp, storage.packed_start)
             self.max_timestamp = max(self.max_timestamp, storage.packed_end)
         super().close()
+        if isinstance(storage, McapStorage):
+            seal(storage.path)
+        if self.humble:
+            rewrite_metadata(self.path / "metadata.yaml")
 
     def flush(self) -> None:
         """MCAP: write the open chunk; sqlite3: commit. The summary waits for close."""
