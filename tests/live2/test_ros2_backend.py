@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import subprocess
 import sys
 
 import pytest
+from ros2_helpers import ROS2_PYTHON, require_ros2, ros2_env
 
 from bubblerob_env.ros.live import RosUnavailableError, load_backend
 from bubblerob_env.ros.live.ros2 import SENSOR_TYPES, qos_kind
@@ -33,3 +35,17 @@ def test_tf2_msgs_is_built_from_the_genuine_definition():
     text = (MSG_DIR / "tf2_msgs" / "TFMessage.msg").read_text()
     assert text.strip() == "geometry_msgs/TransformStamped[] transforms"
     assert PACKAGES["tf2_msgs"]["messages"] == ["TFMessage"]
+
+
+def test_a_bad_domain_id_is_a_clear_error_not_a_dds_exit():
+    require_ros2()
+    result = subprocess.run(
+        [str(ROS2_PYTHON), "-m", "bubblerob_env.cli", "node", "--ros", "2", "--steps", "1"],
+        env=ros2_env(ROS_DOMAIN_ID="500"),
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert result.returncode == 2, result.stdout + result.stderr
+    assert "ROS_DOMAIN_ID='500': it must be 0-232" in result.stderr

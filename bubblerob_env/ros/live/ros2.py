@@ -21,7 +21,13 @@ import os
 import threading
 from typing import Any
 
-from bubblerob_env.ros.live.backend import LiveBackend, Publish, RawCallback, RosUnavailableError
+from bubblerob_env.ros.live.backend import (
+    BackendError,
+    LiveBackend,
+    Publish,
+    RawCallback,
+    RosUnavailableError,
+)
 from bubblerob_env.ros.messages.topics import namespace_prefix
 
 __all__ = ["INSTALL_HINT", "RELIABLE_DEPTH", "SENSOR_TYPES", "Ros2Backend", "qos_kind"]
@@ -95,9 +101,19 @@ class Ros2Backend(LiveBackend):
             ),
         }
         self._types: dict[str, Any] = {}
-        if not rclpy.ok():
-            rclpy.init(args=[])
-        self._node = rclpy.create_node(node_name, namespace=namespace_prefix(namespace) or "/")
+        domain = os.environ.get("ROS_DOMAIN_ID", "").strip()
+        if domain and not (domain.isdigit() and int(domain) <= 232):
+            # Fast DDS would exit the process with status 1 and a log line
+            raise BackendError(f"ROS_DOMAIN_ID={domain!r}: it must be 0-232 (0-101 is safe)")
+        try:
+            if not rclpy.ok():
+                rclpy.init(args=[])
+            self._node = rclpy.create_node(node_name, namespace=namespace_prefix(namespace) or "/")
+        except Exception as error:  # noqa: BLE001 - rclpy's RCLError and friends
+            raise BackendError(
+                f"rclpy could not start the node ({type(error).__name__}: {error}); check "
+                "ROS_DOMAIN_ID, ROS_AUTOMATIC_DISCOVERY_RANGE and RMW_IMPLEMENTATION"
+            ) from None
         self._executor = SingleThreadedExecutor()
         self._executor.add_node(self._node)
         self._closed = False
