@@ -73,6 +73,20 @@ class NodeConfig:
             raise ValueError(f"start must be running, paused or stopped, got {self.start!r}")
 
 
+TWIST_LIMIT = 1e6
+"""cmd_vel components are scaled (together, keeping the turn ratio) into +-this before the
+wheel speeds are computed: ``1e308 / wheel radius`` would overflow to inf, and inf to a NaN
+action. The wheel speeds are then clamped to the motors' maximum as for any command."""
+
+
+def _bounded_twist(linear: float, angular: float) -> tuple[float, float]:
+    peak = max(abs(linear), abs(angular))
+    if peak <= TWIST_LIMIT:
+        return linear, angular
+    scale = TWIST_LIMIT / peak
+    return linear * scale, angular * scale
+
+
 class SimNode:
     """Runs a ``BubbleRob-v0`` env (``action_type="wheels"``) as a ROS node; see the module doc."""
 
@@ -161,7 +175,15 @@ class SimNode:
             except ControlError as error:
                 self._reject(topic, "malformed", f"{error} (from {sender})")
                 return
-            handle(value)
+            if kind == "twist":
+                value = _bounded_twist(*value)
+            elif kind == "float32":  # a wheel speed: at most the motor's
+                top = self.state.drive.max_wheel_speed
+                value = min(max(value, -top), top)
+            try:
+                handle(value)
+            except Exception as error:  # noqa: BLE001 - no message may kill the node
+                self._reject(topic, "unusable", f"{error!r} (from {sender})")
 
         return callback
 
