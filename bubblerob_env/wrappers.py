@@ -1,4 +1,11 @@
-"""``EpisodeSuccess``: ``info["is_success"]`` on the last step of an episode, after a time limit.
+"""``EpisodeSuccess`` (``info["is_success"]`` on an episode's last step) and ``LaserPooling``.
+
+``LaserPooling`` min-pools the laser scan into sectors (360 rays -> 36 by default): the nearest
+reading in each group of ``pool`` consecutive rays, so that a small obstacle between the rays of
+a coarse scan is still seen. Training applies it through rl-zoo's ``env_wrapper`` key, and the
+shipped policies apply the same pooling to the env's full scan (``load_policy``, the ONNX graph).
+
+``EpisodeSuccess``: ``info["is_success"]`` on the last step of an episode, after a time limit.
 
 The env itself now sets ``info["is_success"]`` on every step ("no collision so far"), which on an
 episode's last step is its success: ``gym.make_vec``'s vector entry point refuses a spec with
@@ -13,9 +20,111 @@ from __future__ import annotations
 from typing import Any, SupportsFloat
 
 import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
 from gymnasium.utils import RecordConstructorArgs
+from numpy.typing import NDArray
 
-__all__ = ["EpisodeSuccess"]
+__all__ = ["EpisodeSuccess", "LaserPooling", "laser_pooling", "min_pool", "parse_env_wrapper"]
+
+LASER_POOLING = "bubblerob_env.wrappers.LaserPooling"
+
+
+def parse_env_wrapper(spec: Any) -> list[tuple[str, dict[str, Any]]]:
+    """rl-zoo's ``env_wrapper`` hyperparameter as ``[("module.Class", kwargs), ...]``.
+
+    ``spec`` is what rl-baselines3-zoo accepts: ``None``, a string ``"module.Class"``, a one-key
+    mapping ``{"module.Class": {kwargs}}``, or a list of those (applied first to last).
+    """
+    if spec is None:
+        return []
+    entries = spec if isinstance(spec, list) else [spec]
+    parsed = []
+    for entry in entries:
+        kwargs: dict[str, Any]
+        if isinstance(entry, str):
+            name, kwargs = entry, {}
+        elif isinstance(entry, dict) and len(entry) == 1:
+            name, kwargs = next(iter(entry.items()))
+            kwargs = dict(kwargs or {})
+        else:
+            raise ValueError(
+                f"env_wrapper entries are 'module.Class' or {{'module.Class': {{kwargs}}}}, "
+                f"got {entry!r}"
+            )
+        if not isinstance(name, str) or "." not in name:
+            raise ValueError(f"env_wrapper names a class as 'module.Class', got {name!r}")
+        parsed.append((name, kwargs))
+    return parsed
+
+
+def laser_pooling(spec: Any) -> list[tuple[str, int]]:
+    """The ``(key, pool)`` of each :class:`LaserPooling` in rl-zoo's ``env_wrapper`` ``spec``.
+
+    What a trained policy must apply to the env's observation before predicting, in order.
+    Raises ``ValueError`` for any other wrapper: a policy cannot replay it on an observation.
+    """
+    steps = []
+    for name, kwargs in parse_env_wrapper(spec):
+        if name != LASER_POOLING:
+            raise ValueError(
+                f"env_wrapper {name!r}: trained policies can apply only {LASER_POOLING} "
+                "to the env's observations"
+            )
+        unknown = sorted(set(kwargs) - {"pool", "key"})
+        if unknown:
+            raise ValueError(f"env_wrapper {name!r}: unknown arguments {unknown}")
+        steps.append((str(kwargs.get("key", "laser")), int(kwargs.get("pool", 10))))
+    return steps
+
+
+def min_pool(scan: NDArray[Any], pool: int) -> NDArray[Any]:
+    """The minimum over each group of ``pool`` consecutive rays of the last axis of ``scan``.
+
+    Ray ``i`` goes to sector ``i // pool``; the number of rays must be a multiple of ``pool``.
+    Works on one scan ``(rays,)`` or a batch ``(..., rays)`` and keeps the dtype.
+    """
+    rays = scan.shape[-1]
+    if pool < 1 or rays % pool:
+        raise ValueError(f"pool must be a positive divisor of the {rays} rays, got {pool}")
+    pooled: NDArray[Any] = scan.reshape(*scan.shape[:-1], rays // pool, pool).min(axis=-1)
+    return pooled
+
+
+class LaserPooling(gym.ObservationWrapper[Any, Any, Any], RecordConstructorArgs):
+    """Replaces the dict observation's ``key`` scan by its min over groups of ``pool`` rays.
+
+    With the default env (360 rays) and ``pool=10`` the policy sees 36 sectors of 10 degrees,
+    each the nearest reading in it. The observation space's ``key`` Box is updated (same bounds,
+    ``rays // pool`` entries); the other entries pass through unchanged. Rewards and ``info``
+    are the env's, computed from the full scan.
+    """
+
+    def __init__(self, env: gym.Env[Any, Any], pool: int = 10, key: str = "laser") -> None:
+        RecordConstructorArgs.__init__(self, pool=pool, key=key)
+        gym.ObservationWrapper.__init__(self, env)
+        space = env.observation_space
+        if not isinstance(space, spaces.Dict) or key not in space.spaces:
+            raise ValueError(f"LaserPooling needs a Dict observation space with {key!r}")
+        scan = space.spaces[key]
+        if not isinstance(scan, spaces.Box) or len(scan.shape) != 1:
+            raise ValueError(f"observation {key!r} must be a 1-D Box, got {scan}")
+        rays = scan.shape[0]
+        if pool < 1 or rays % pool:
+            raise ValueError(f"pool must be a positive divisor of the {rays} rays, got {pool}")
+        self.pool = pool
+        self.key = key
+        pooled = spaces.Box(
+            min_pool(np.asarray(scan.low), pool),
+            min_pool(np.asarray(scan.high), pool),
+            (rays // pool,),
+            scan.dtype,
+        )
+        self.observation_space = spaces.Dict({**space.spaces, key: pooled})
+
+    def observation(self, observation: Any) -> Any:
+        """The observation with its scan min-pooled."""
+        return {**observation, self.key: min_pool(observation[self.key], self.pool)}
 
 
 class EpisodeSuccess(gym.Wrapper[Any, Any, Any, Any], RecordConstructorArgs):

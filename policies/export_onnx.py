@@ -13,6 +13,9 @@ The graph follows SB3's ONNX export recipe (a ``torch.nn.Module`` around the pol
 - one input per observation key, named by the key, each ``(batch, *shape)`` float32 (uint8 for an
   image); SB3's ``CombinedExtractor`` concatenates them in the observation space's (sorted) key
   order, and the graph does the same because it runs the policy's own feature extractor;
+- the laser pooling the model was trained behind (rl-zoo's ``env_wrapper`` with
+  :class:`bubblerob_env.wrappers.LaserPooling` in the run's ``config.yml``): the minimum over
+  each group of ``pool`` consecutive rays, so the input stays the env's full scan;
 - VecNormalize's observation normalisation, in float64 as NumPy does it:
   ``clip((obs - mean) / sqrt(var + epsilon), -clip_obs, clip_obs)``, then float32;
 - the deterministic action (the Gaussian's mean for PPO, SAC's squashed mean), clipped to the
@@ -20,7 +23,8 @@ The graph follows SB3's ONNX export recipe (a ``torch.nn.Module`` around the pol
 - one output, ``action`` ``(batch, action_dim)`` float32.
 
 The model's metadata (``bubblerob`` key, JSON) records the env it was trained for (env id, env
-kwargs, action type, laser rays, camera), the observation keys and the source files' SHA-256, so
+kwargs, action type, laser rays, camera), the observation keys and shapes (the env's), the
+pooling baked in and the source files' SHA-256, so
 ``load_policy`` can refuse a mismatched env and a test can tell a stale export.
 """
 
@@ -73,8 +77,14 @@ def _load_model(path: Path) -> Any:
     return (SAC if sb3_algorithm(path) == "SAC" else PPO).load(path, device="cpu")
 
 
-def _build_module(model: Any, normalizer: Any) -> tuple[Any, list[str]]:
-    """The torch module (raw observations in key order -> action) and the key order."""
+def _build_module(
+    model: Any, normalizer: Any, pooling: Sequence[tuple[str, int]] = ()
+) -> tuple[Any, list[str]]:
+    """The torch module (raw observations in key order -> action) and the key order.
+
+    ``pooling`` (``[(key, pool), ...]``) min-pools those inputs first, as ``LaserPooling`` did in
+    training: the module takes the env's full scan.
+    """
     import torch
     from gymnasium import spaces
     from stable_baselines3.common.distributions import DiagGaussianDistribution
@@ -112,6 +122,9 @@ def _build_module(model: Any, normalizer: Any) -> tuple[Any, list[str]]:
         def forward(self, *observations: Any) -> Any:
             obs = {}
             for key, value in zip(keys, observations, strict=True):
+                for pooled_key, size in pooling:
+                    if pooled_key == key:  # LaserPooling: min over groups of `size` rays
+                        value = value.unflatten(-1, (-1, size)).amin(dim=-1)
                 if key in stats:
                     mean, std, clip = stats[key]
                     value = ((value.double() - mean) / std).clamp(-clip, clip).float()
@@ -141,11 +154,12 @@ def _build_module(model: Any, normalizer: Any) -> tuple[Any, list[str]]:
 
 def export_onnx(model_path: Path, out: Path | None = None) -> Path:
     """Export ``model_path`` (and ``<stem>_vecnormalize.pkl`` beside it, if any) to ONNX."""
+    import gymnasium as gym
     import onnx
     import torch
 
     import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
-    from policies.loading import env_signature
+    from policies.loading import env_signature, recorded_pooling
 
     model_path = Path(model_path)
     out = model_path.with_suffix(".onnx") if out is None else Path(out)
@@ -155,8 +169,13 @@ def export_onnx(model_path: Path, out: Path | None = None) -> Path:
     if stats_path.is_file():
         with stats_path.open("rb") as handle:
             normalizer = pickle.load(handle)  # noqa: S301 - our own training output
-    module, keys = _build_module(model, normalizer)
-    obs_space = model.observation_space
+    pooling = recorded_pooling(model_path)
+    module, keys = _build_module(model, normalizer, pooling)
+    env_id, env_kwargs = _recorded_env(model_path)
+    env = gym.make(env_id, **env_kwargs)
+    # The graph's inputs are the env's observations (its full scan when the model was trained
+    # behind LaserPooling); without pooling they equal the model's observation space.
+    obs_space: Any = env.observation_space if pooling else model.observation_space
     dummy = tuple(
         torch.as_tensor(np.stack([obs_space[key].sample()] * 2)) for key in keys
     )  # a batch of 2, so the batch axis stays symbolic
@@ -174,11 +193,7 @@ def export_onnx(model_path: Path, out: Path | None = None) -> Path:
             opset_version=OPSET,
             dynamo=False,
         )
-    import gymnasium as gym
-
-    env_id, env_kwargs = _recorded_env(model_path)
-    env = gym.make(env_id, **env_kwargs)
-    info = {
+    info: dict[str, Any] = {
         "algo": type(model).__name__,
         "env_id": env_id,
         "env_kwargs": env_kwargs,
@@ -189,6 +204,8 @@ def export_onnx(model_path: Path, out: Path | None = None) -> Path:
         "source": {model_path.name: sha256(model_path)}
         | ({stats_path.name: sha256(stats_path)} if normalizer is not None else {}),
     }
+    if pooling:
+        info["observation_pooling"] = [[key, size] for key, size in pooling]
     env.close()
     graph = onnx.load(str(out))
     graph.producer_name = "bubblerob policies.export_onnx"

@@ -8,8 +8,10 @@ from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
+import numpy as np
 
 from bubblerob_env import BubbleRobEnv
+from bubblerob_env.wrappers import laser_pooling, min_pool
 from policies.base import ActionMapper, Policy
 from policies.handwritten import LaserPolicy, RandomPolicy, ReactivePolicy
 
@@ -20,6 +22,7 @@ __all__ = [
     "check_env",
     "env_signature",
     "load_policy",
+    "recorded_pooling",
 ]
 
 BUILTIN_POLICIES = ("reactive", "laser", "random")
@@ -174,6 +177,39 @@ class NormalizedPolicy:
         """Nothing to forget: the model is stateless."""
 
 
+class PooledPolicy:
+    """A policy trained behind :class:`~bubblerob_env.wrappers.LaserPooling`, fed the full scan.
+
+    Min-pools each ``(key, pool)`` of ``pooling`` (in order) of the env's observation, one or a
+    batch, then asks ``policy``: the same observations the model saw in training.
+    """
+
+    def __init__(self, policy: Policy, pooling: list[tuple[str, int]]) -> None:
+        self.policy = policy
+        self.pooling = list(pooling)
+
+    def pool(self, observation: dict[str, Any]) -> dict[str, Any]:
+        """The observation as the model saw it in training."""
+        pooled = dict(observation)
+        for key, size in self.pooling:
+            pooled[key] = min_pool(np.asarray(pooled[key]), size)
+        return pooled
+
+    def predict(
+        self,
+        observation: Any,
+        state: Any = None,
+        episode_start: Any = None,
+        deterministic: bool = True,
+    ) -> Any:
+        """The wrapped policy's ``predict`` on the pooled observation."""
+        return self.policy.predict(self.pool(observation), state, episode_start, deterministic)
+
+    def reset(self) -> None:
+        """Reset the wrapped policy."""
+        self.policy.reset()
+
+
 class _SB3Policy:
     """An SB3 model with ``reset`` (the ``Policy`` protocol)."""
 
@@ -209,6 +245,12 @@ def sb3_algorithm(path: Path) -> str:
 
 def _recorded_env_kwargs(path: Path) -> dict[str, Any] | None:
     """The ``env_kwargs`` of the run's ``config.yml`` beside the model, if there is one."""
+    config = _recorded_config(path)
+    return None if config is None else dict(config.get("env_kwargs") or {})
+
+
+def _recorded_config(path: Path) -> dict[str, Any] | None:
+    """The hyperparameters in the run's ``config.yml`` beside the model, if there is one."""
     config = path.with_name("config.yml")
     if not config.is_file():
         return None
@@ -218,7 +260,26 @@ def _recorded_env_kwargs(path: Path) -> dict[str, Any] | None:
     if not isinstance(table, dict) or len(table) != 1:
         return None
     (entry,) = table.values()
-    return dict((entry or {}).get("env_kwargs") or {})
+    return dict(entry or {})
+
+
+def recorded_pooling(path: Path) -> list[tuple[str, int]]:
+    """The laser pooling (``env_wrapper``) of the run's ``config.yml`` beside the model.
+
+    ``[(key, pool), ...]``, empty without a config or an ``env_wrapper``; ``ValueError`` for a
+    wrapper other than :class:`~bubblerob_env.wrappers.LaserPooling`.
+    """
+    config = _recorded_config(path)
+    return [] if config is None else laser_pooling(config.get("env_wrapper"))
+
+
+def _pooled_shape(shape: tuple[int, ...], key: str, pooling: list[tuple[str, int]]) -> Any:
+    for pooled_key, size in pooling:
+        if pooled_key == key:
+            if not shape or shape[-1] % size:
+                return shape  # the shape check below reports the mismatch
+            shape = (*shape[:-1], shape[-1] // size)
+    return shape
 
 
 def _load_sb3(path: Path, env: gym.Env[Any, Any] | None = None, name: str = "") -> Policy:
@@ -233,6 +294,7 @@ def _load_sb3(path: Path, env: gym.Env[Any, Any] | None = None, name: str = "") 
         ) from None
 
     model: Any = (SAC if sb3_algorithm(path) == "SAC" else PPO).load(path, device="cpu")
+    pooling = recorded_pooling(path)
     if env is not None:
         kwargs = _recorded_env_kwargs(path)
         if kwargs is not None:
@@ -242,15 +304,20 @@ def _load_sb3(path: Path, env: gym.Env[Any, Any] | None = None, name: str = "") 
         _check_observation_keys(name or str(path), list(model.observation_space.spaces), env)
         env_spaces: dict[str, Any] = dict(getattr(env.observation_space, "spaces", {}))
         for key, space in model.observation_space.spaces.items():
-            if env_spaces[key].shape != space.shape:
+            given = _pooled_shape(tuple(env_spaces[key].shape), key, pooling)
+            if given != space.shape:
+                pooled = " after its laser pooling" if given != env_spaces[key].shape else ""
                 raise PolicyEnvMismatchError(
                     f"policy {name or path!s} takes {key} of shape {space.shape}, "
-                    f"but this env gives {env_spaces[key].shape}"
+                    f"but this env gives {env_spaces[key].shape}{pooled}"
                 )
     stats = path.with_name(path.stem + NORMALIZATION_SUFFIX)
+    policy: Policy
     if not stats.is_file():
-        return _SB3Policy(model)
-    with stats.open("rb") as handle:
-        normalizer = pickle.load(handle)  # noqa: S301 - our own training output
-    normalizer.training = False
-    return NormalizedPolicy(model, normalizer)
+        policy = _SB3Policy(model)
+    else:
+        with stats.open("rb") as handle:
+            normalizer = pickle.load(handle)  # noqa: S301 - our own training output
+        normalizer.training = False
+        policy = NormalizedPolicy(model, normalizer)
+    return PooledPolicy(policy, pooling) if pooling else policy

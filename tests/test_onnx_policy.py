@@ -14,7 +14,12 @@ import pytest
 from policies import load_policy
 from policies.base import Policy
 from policies.export_onnx import sha256
-from policies.loading import SHIPPED_POLICIES, PolicyEnvMismatchError
+from policies.loading import (
+    SHIPPED_POLICIES,
+    PolicyEnvMismatchError,
+    PooledPolicy,
+    recorded_pooling,
+)
 from policies.onnx_policy import OnnxPolicy
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -41,6 +46,18 @@ def _env_observations(policy, seeds=range(5), steps=300):
 
 def _stack(observations):
     return {key: np.stack([obs[key] for obs in observations]) for key in observations[0]}
+
+
+def _pooled(batch, pooling):
+    """``batch`` with each ``(key, pool)`` min-pooled by Python's ``min`` (independent of the code
+    under test), as ``LaserPooling`` showed the model its observations in training."""
+    pooled = dict(batch)
+    for key, size in pooling:
+        scans = np.asarray(pooled[key])
+        rows = scans.reshape(-1, scans.shape[-1]).tolist()
+        sectors = [[min(row[i : i + size]) for i in range(0, len(row), size)] for row in rows]
+        pooled[key] = np.asarray(sectors, dtype=scans.dtype).reshape(*scans.shape[:-1], -1)
+    return pooled
 
 
 def _random_observations(space, count, seed=0):
@@ -70,6 +87,11 @@ def test_onnx_actions_equal_the_sb3_models():
     env = gym.make("BubbleRob-v0")
     sb3 = load_policy(TRAINED / "ppo_bubblerob_v0.zip", env)
     onnx = load_policy("ppo", env)
+    # A model trained behind LaserPooling: the ONNX graph takes the env's full scan and pools it
+    # itself; the SB3 model is fed the pooled observations, computed here.
+    pooling = recorded_pooling(TRAINED / "ppo_bubblerob_v0.zip")
+    model = sb3.policy if isinstance(sb3, PooledPolicy) else sb3
+    assert isinstance(sb3, PooledPolicy) == bool(pooling)
     # Real observations from several seeds, driven by both policies and the gap follower (close
     # calls and collisions), and samples of the whole observation space (clipping).
     observations = (
@@ -80,7 +102,7 @@ def test_onnx_actions_equal_the_sb3_models():
     )
     assert len(observations) > 3000
     batch = _stack(observations)
-    expected, _ = sb3.predict(batch, deterministic=True)
+    expected, _ = model.predict(_pooled(batch, pooling), deterministic=True)
     actions, state = onnx.predict(batch)
     assert state is None
     assert actions.dtype == np.float32 and actions.shape == expected.shape == (len(observations), 2)
@@ -89,7 +111,8 @@ def test_onnx_actions_equal_the_sb3_models():
     for obs in observations[::250]:  # single observations, as run_episode passes them
         single, _ = onnx.predict(obs)
         assert single.shape == (2,)
-        assert np.abs(single - sb3.predict(obs, deterministic=True)[0]).max() <= TOLERANCE
+        reference, _ = model.predict(_pooled(obs, pooling), deterministic=True)
+        assert np.abs(single - reference).max() <= TOLERANCE
 
 
 @pytest.mark.parametrize("algo", ["ppo", "sac"])

@@ -35,6 +35,7 @@ __all__ = [
     "load_hyperparams",
     "main",
     "train",
+    "wrapper_class",
 ]
 
 ALGOS = ("ppo", "sac")
@@ -42,7 +43,7 @@ HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
 NORMALIZATION_SUFFIX = "_vecnormalize.pkl"
 """``<model stem><suffix>`` beside a model holds its VecNormalize statistics (``load_policy``)."""
 EVAL_SEED_OFFSET = 1_000_000  # evaluation episodes use seeds training never sees
-_NOT_ALGO_KWARGS = ("normalize", "n_timesteps", "n_envs", "env_kwargs", "policy")
+_NOT_ALGO_KWARGS = ("normalize", "n_timesteps", "n_envs", "env_kwargs", "policy", "env_wrapper")
 PROJECT_SETTINGS = {"vec_env": "--vec-env", "torch_threads": "--torch-threads"}
 """Settings of this project's trainer that rl_zoo3 does not know: command-line options, not YAML."""
 VEC_ENVS = ("dummy", "subproc", "batched")
@@ -70,6 +71,31 @@ def _reject_project_settings(config: dict[str, Any]) -> None:
             raise ValueError(
                 f"{key!r} is not an rl_zoo3 hyperparameter: use the command-line option {option}"
             )
+
+
+def wrapper_class(spec: Any) -> Any:
+    """rl-zoo's ``env_wrapper`` as one callable ``env -> wrapped env`` (``None`` without one).
+
+    ``spec`` is a string ``"module.Class"``, a one-key mapping ``{"module.Class": {kwargs}}`` or
+    a list of those, applied first to last, as rl_zoo3 applies them.
+    """
+    import importlib
+
+    from bubblerob_env.wrappers import parse_env_wrapper
+
+    classes = []
+    for name, kwargs in parse_env_wrapper(spec):
+        module, _, cls_name = name.rpartition(".")
+        classes.append((getattr(importlib.import_module(module), cls_name), kwargs))
+    if not classes:
+        return None
+
+    def wrap(env: Any) -> Any:
+        for cls, kwargs in classes:
+            env = cls(env, **kwargs)
+        return env
+
+    return wrap
 
 
 def _schedules(config: dict[str, Any]) -> dict[str, Any]:
@@ -178,12 +204,15 @@ def train(
     (out / "settings.json").write_text(json.dumps(settings, indent=2) + "\n")
 
     env_kwargs = config.get("env_kwargs") or {}
+    wrap = wrapper_class(config.get("env_wrapper"))
     count = int(config["n_envs"])
     # DummyVecEnv by default: with small, fast envs on a 2-core machine the inter-process round
     # trips of SubprocVecEnv cost more than stepping the envs in-process.
     vec_cls = SubprocVecEnv if count > 1 and vec_env == "subproc" else DummyVecEnv
     torch.set_num_threads(int(torch_threads))
     if vec_env == "batched":
+        if wrap is not None:
+            raise ValueError("--vec-env batched cannot apply env_wrapper; use dummy or subproc")
         envs = _batched_envs(env_id, count, seed, env_kwargs)
     else:
         envs = make_vec_env(
@@ -192,12 +221,14 @@ def train(
             seed=seed,
             env_kwargs=env_kwargs,
             vec_env_cls=vec_cls,
+            wrapper_class=wrap,
         )
     eval_env = make_vec_env(
         env_id,
         n_envs=1,
         seed=seed + EVAL_SEED_OFFSET,
         env_kwargs=env_kwargs,
+        wrapper_class=wrap,
     )
     if config.get("normalize", False):
         # rl-zoo's "normalize: true": running mean/std of observations (and returns for training).
