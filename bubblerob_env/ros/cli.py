@@ -76,6 +76,15 @@ def add_subcommands(subparsers: Any) -> None:
     replay.add_argument("--episodes", type=int, default=None, help="replay only the first N")
     replay.set_defaults(handler=_replay)
 
+    recover = subparsers.add_parser(
+        "recover",
+        help="finish a bag whose recording was killed (index, summary, metadata.yaml)",
+        description="Write a finished bag from the complete episodes of an unfinished one (its "
+        "recorder was killed) and put it in its place; the original is kept as BAG.orig.",
+    )
+    recover.add_argument("bag", type=Path, help="ROS 1 .bag file or ROS 2 bag directory")
+    recover.set_defaults(handler=_recover)
+
     from bubblerob_env.ros.live.cli import add_node_subcommand
 
     add_node_subcommand(subparsers)
@@ -225,3 +234,15 @@ def _replay(args: argparse.Namespace) -> int:
         return 2
     print(report)
     return 0 if report.ok else 1
+
+
+def _recover(args: argparse.Namespace) -> int:
+    from bubblerob_env.ros.recover import recover_bag
+
+    try:
+        report = recover_bag(args.bag)
+    except OSError as error:
+        print(f"bubblerob recover: {error}", file=sys.stderr)
+        return 2
+    print(report)
+    return 0

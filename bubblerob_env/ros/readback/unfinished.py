@@ -114,6 +114,8 @@ class UnfinishedReader:
         if not starts:
             return []
         last_start, meta = starts[-1]
+        if meta.get("distro") in ("humble", "jazzy", "noetic"):  # MCAP does not say
+            self.distro = meta["distro"]
         flags = {
             name
             for key in ("terminated", "truncated")
