@@ -277,8 +277,13 @@ def cmd_states(node, args):
 
 
 def cmd_topics(node, args):
-    time.sleep(args.seconds)
-    return sorted(name for name, _ in node.get_topic_names_and_types())
+    """The graph's topics, once every ``--expect``ed one is discovered (or ``--seconds`` passed)."""
+    end = time.monotonic() + args.seconds
+    while True:
+        names = sorted(name for name, _ in node.get_topic_names_and_types())
+        if (args.expect and set(args.expect) <= set(names)) or time.monotonic() > end:
+            return names
+        time.sleep(0.1)
 
 
 def cmd_tutorialloop(node, args):
@@ -359,7 +364,8 @@ def main():
     p = sub.add_parser("states")
     p.add_argument("--pause-seconds", type=float, default=0.5)
     p = sub.add_parser("topics")
-    p.add_argument("--seconds", type=float, default=2.0)
+    p.add_argument("--seconds", type=float, default=15.0)
+    p.add_argument("--expect", nargs="*", default=[])
     p = sub.add_parser("tutorialloop")
     p.add_argument("--steps", type=int, default=600)
     p.add_argument("--forward", type=float, default=8.0)

@@ -81,8 +81,10 @@ def test_n_triggers_advance_exactly_n_steps(robot2):
 
 def test_two_robots_in_namespaces(tutorial_node, robot2):
     assert tutorial_node.alive(), tutorial_node.output
-    topics = client("topics")
-    for name in ("scan", "odom", "simulationState", "triggerNextStep", "cmd_vel"):
+    names = ("scan", "odom", "simulationState", "triggerNextStep", "cmd_vel")
+    expected = [f"{ns}/{name}" for name in names for ns in ("", "/robot2")]
+    topics = client("topics", "--expect", *expected)  # waits for discovery, 15 s at most
+    for name in names:
         assert f"/{name}" in topics and f"/robot2/{name}" in topics, name
 
 
