@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 
@@ -49,3 +50,52 @@ def test_a_bad_domain_id_is_a_clear_error_not_a_dds_exit():
     )
     assert result.returncode == 2, result.stdout + result.stderr
     assert "ROS_DOMAIN_ID='500': it must be 0-232" in result.stderr
+
+
+WRAPPER = """
+import json, time
+import gymnasium as gym
+import numpy as np
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+from nav_msgs.msg import Odometry
+import bubblerob_env
+from bubblerob_env.ros import RosLivePublisher
+
+env = RosLivePublisher(gym.make("BubbleRob-v0"), ros=2)  # starts rclpy
+probe = rclpy.create_node("probe")
+got = []
+probe.create_subscription(Odometry, "/odom", got.append, 100)
+executor = SingleThreadedExecutor()
+executor.add_node(probe)
+end = time.monotonic() + 20
+while probe.count_publishers("/odom") < 1 and time.monotonic() < end:
+    executor.spin_once(timeout_sec=0.05)
+time.sleep(0.5)
+env.reset(seed=0)
+for _ in range(20):
+    env.step(np.array([0.5, 0.5], dtype=np.float32))
+while len(got) < 21 and time.monotonic() < end:
+    executor.spin_once(timeout_sec=0.05)
+stamps = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in got]
+executor.shutdown()
+probe.destroy_node()
+env.close()
+print(json.dumps({"odom": len(got), "steps": [b - a for a, b in zip(stamps, stamps[1:])]}))
+"""
+
+
+def test_ros_live_publisher_wrapper_on_rclpy():
+    require_ros2()
+    result = subprocess.run(
+        [str(ROS2_PYTHON), "-c", WRAPPER],
+        env=ros2_env(),
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert result.returncode == 0, result.stdout + result.stderr
+    out = json.loads(result.stdout.strip().splitlines()[-1])
+    assert out["odom"] == 21  # the reset and 20 steps
+    assert out["steps"] == [50_000_000] * 20  # simulated time, one control step apart
