@@ -89,6 +89,18 @@ def test_sensor_switches(master, node):
     assert min(counts.values()) >= 10, counts
 
 
+def test_command_topics_have_their_types_on_the_master(master, node):
+    expected = {
+        "/cmd_vel": "geometry_msgs/Twist",
+        "/leftMotorSpeed": "std_msgs/Float32",
+        "/triggerNextStep": "std_msgs/Bool",
+        "/laser_switch": "std_msgs/Bool",
+    }
+    for topic, msgtype in expected.items():
+        result = master.run(["/usr/bin/rostopic", "type", topic])
+        assert result.stdout.strip() == msgtype, (topic, result.stdout, result.stderr)
+
+
 def test_malformed_and_wrongly_typed_commands_are_rejected(master, node):
     master.client("pub", "/cmd_vel", "string", "forward please")
     master.client("pub", "/cmd_vel", "badtwist")

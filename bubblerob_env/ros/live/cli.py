@@ -197,6 +197,9 @@ def _node(args: argparse.Namespace) -> int:
         signal.signal(signal.SIGTERM, previous)
         node.close()
         backend.shutdown("exiting")
+    lost = getattr(backend, "lost_master", None)
+    if lost:
+        print(f"bubblerob node: {lost}; exiting (start it again with the master)", flush=True)
     first, last = node.first_step_at, node.last_step_at
     wall = (last - first) if first is not None and last is not None else 0.0
     rate = f"{node.steps / wall:.1f}" if wall > 0 else "-"
@@ -205,4 +208,4 @@ def _node(args: argparse.Namespace) -> int:
         f"{node.publisher.sink.published} messages published",
         flush=True,
     )
-    return 0
+    return 1 if lost else 0

@@ -5,7 +5,8 @@
 shadow the venv's). Every topic is published with a message class whose ``serialize`` writes
 bytes made by :mod:`~bubblerob_env.ros.fastpath`, declaring the genuine type, md5sum and full
 definition, so that ``rostopic echo``, ``rosbag record`` and typed subscribers accept it. Control
-topics are subscribed as ``rospy.AnyMsg``: the sender's declared type is checked here and wrongly
+topics are subscribed with their type (the master and ``rostopic type`` know it) but md5sum
+``*``, as ``rospy.AnyMsg`` is: every sender connects, its declared type is checked here and wrongly
 typed messages are reported instead of being silently refused by the middleware.
 """
 
@@ -14,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import os
 import sys
+import threading
 import time
 import warnings
 import xmlrpc.client
@@ -151,6 +153,42 @@ class Ros1Backend(LiveBackend):
         self._publishers: list[Any] = []
         self._subscribers: list[Any] = []
         self._classes: dict[str, type] = {}
+        self.lost_master: str | None = None
+        """Why the node stopped itself: its master went away or restarted (``None``: it did not)."""
+        uri = os.environ.get("ROS_MASTER_URI") or DEFAULT_MASTER_URI
+        threading.Thread(target=self._watch_master, args=(uri,), daemon=True).start()
+
+    def _watch_master(self, uri: str, interval: float = 1.0, patience: float = 3.0) -> None:
+        """Stop the node when its master is gone for ``patience`` s, or forgot it (restarted).
+
+        rospy never registers again with a new master, so a node that went on would publish to
+        nobody, silently; it stops instead, with :attr:`lost_master` saying why, so that
+        ``bubblerob node`` exits non-zero and a supervisor (``roslaunch respawn``, systemd) can
+        start it again.
+        """
+        rospy = self._rospy
+        name = rospy.get_name()
+        failing_since: float | None = None
+        while not rospy.is_shutdown():
+            time.sleep(interval)
+            try:
+                proxy = xmlrpc.client.ServerProxy(uri, transport=_TimeoutTransport(interval))
+                answer: Any = proxy.lookupNode("/bubblerob_watch", name)
+                code = answer[0]
+            except (OSError, xmlrpc.client.Error) as error:
+                failing_since = failing_since or time.monotonic()
+                if time.monotonic() - failing_since < patience:
+                    continue
+                reason = f"the ROS master at {uri} is gone ({error or type(error).__name__})"
+            else:
+                failing_since = None
+                if code == 1 or rospy.is_shutdown():
+                    continue
+                reason = f"the ROS master at {uri} restarted and no longer knows {name}"
+            self.lost_master = reason
+            rospy.logerr(f"{reason}: stopping")
+            rospy.signal_shutdown(reason)
+            return
 
     def _raw_class(self, msgtype: str) -> type:
         if msgtype not in self._classes:
@@ -186,8 +224,14 @@ class Ros1Backend(LiveBackend):
             header = getattr(message, "_connection_header", None) or {}
             callback(message._buff or b"", header.get("type"), header.get("callerid", "?"))
 
+        name, _, text = ros1_msgdef(msgtype)
+        typed_any = type(  # AnyMsg that names its type: registered as such, accepts any sender
+            "Any_" + name.replace("/", "_"),
+            (self._rospy.AnyMsg,),
+            {"_type": name, "_md5sum": "*", "_full_text": text, "__slots__": ()},
+        )
         self._subscribers.append(
-            self._rospy.Subscriber(topic, self._rospy.AnyMsg, receive, tcp_nodelay=True)
+            self._rospy.Subscriber(topic, typed_any, receive, tcp_nodelay=True)
         )
 
     def ok(self) -> bool:
