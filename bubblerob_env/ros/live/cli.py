@@ -7,6 +7,7 @@ import json
 import os
 import signal
 import sys
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -101,7 +102,11 @@ def add_node_subcommand(subparsers: Any) -> None:
         help="initial simulation state",
     )
     node.add_argument("--max-steps", type=int, default=None, help="step limit per episode")
-    node.add_argument("--no-clock", action="store_true", help="do not publish /clock")
+    node.add_argument(
+        "--no-clock",
+        action="store_true",
+        help="do not publish /clock: follow it (start at its first time) as a second robot",
+    )
     node.add_argument(
         "--start-time",
         default=None,
@@ -141,7 +146,7 @@ def _node(args: argparse.Namespace) -> int:
     import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
     from bubblerob_env.ros.episodes import start_time_ns
     from bubblerob_env.ros.live.backend import BackendError, load_backend
-    from bubblerob_env.ros.live.node import NodeConfig, SimNode
+    from bubblerob_env.ros.live.node import NodeConfig, SimNode, shared_clock_ns
     from bubblerob_env.ros.messages.topics import topics_preset
 
     def fail(text: str) -> int:
@@ -182,6 +187,13 @@ def _node(args: argparse.Namespace) -> int:
     except BackendError as error:
         env.close()
         return fail(str(error))
+    if args.no_clock and args.start_time is None:  # follow the robot that publishes /clock
+        shared = topics_preset(args.topics, args.namespace).resolved().get("clock")
+        start = shared_clock_ns(backend, shared, 10.0) if shared else None
+        if start is None:
+            print(f"bubblerob node: no {shared} within 10 s: starting at the wall clock")
+        else:
+            config = replace(config, start_time=f"{start // 10**9}.{start % 10**9:09d}")
     node = SimNode(env, backend, topics, config=config)
     previous = signal.signal(signal.SIGTERM, lambda *_: node.request_stop())
     print(

@@ -14,6 +14,7 @@ it runs at ``rate_factor`` times real time (0: as fast as possible). When an epi
 from __future__ import annotations
 
 import math
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -30,7 +31,7 @@ from bubblerob_env.ros.live.controls import (
     decode_control,
 )
 from bubblerob_env.ros.live.wrapper import RosLivePublisher
-from bubblerob_env.ros.messages.distros import get_distro, serialize, typestore
+from bubblerob_env.ros.messages.distros import deserialize, get_distro, serialize, typestore
 from bubblerob_env.ros.messages.topics import Topics
 
 __all__ = ["STOPPED", "RUNNING", "PAUSED", "NodeConfig", "SimNode"]
@@ -85,6 +86,30 @@ def _bounded_twist(linear: float, angular: float) -> tuple[float, float]:
         return linear, angular
     scale = TWIST_LIMIT / peak
     return linear * scale, angular * scale
+
+
+def shared_clock_ns(backend: LiveBackend, topic: str, timeout: float) -> int | None:
+    """The first time on ``topic`` (the shared ``/clock``) within ``timeout`` s, or ``None``.
+
+    A ``--no-clock`` robot starts its time there, so that its stamps follow the robot that
+    publishes the clock instead of starting at its own wall clock.
+    """
+    got: list[int] = []
+    arrived = threading.Event()
+
+    def receive(raw: bytes, msgtype: str | None, sender: str) -> None:
+        if arrived.is_set():
+            return
+        try:
+            clock = deserialize(backend.distro, raw, "rosgraph_msgs/msg/Clock").clock
+        except Exception:  # noqa: BLE001 - not a clock: keep waiting
+            return
+        got.append(int(clock.sec) * 10**9 + int(clock.nanosec))
+        arrived.set()
+
+    backend.subscribe(topic, "rosgraph_msgs/msg/Clock", receive)
+    arrived.wait(timeout)
+    return got[0] if got else None
 
 
 class SimNode:
