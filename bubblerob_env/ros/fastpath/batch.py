@@ -38,7 +38,6 @@ if TYPE_CHECKING:
 __all__ = ["FrameBatch"]
 
 
-
 class FrameBatch:
     """Frames after steps, gathered as raw numbers until :meth:`columns` converts them all.
 
