@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 from collections.abc import Sequence
 from importlib import metadata
@@ -49,7 +50,8 @@ class HelpFormatter(argparse.HelpFormatter):
             "default" in text
             or default in (None, False, argparse.SUPPRESS)
             or action.option_strings == []
-            or isinstance(default, list) and not default
+            or isinstance(default, list)
+            and not default
         ):
             return action.help
         return f"{text} (default: %(default)s)"
@@ -127,7 +129,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         raise SystemExit(
             f"bubblerob {args.command} needs the [{extra}] extra: pip install 'bubblerob[{extra}]'"
         )
-    result = handler(args)
+    try:
+        result = handler(args)
+        sys.stdout.flush()
+    except BrokenPipeError:  # `bubblerob info BAG | head`: the reader left, nothing is wrong
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())  # so that the flush at exit does not fail again
+        return 141  # 128 + SIGPIPE, as a shell reports it
     return int(result or 0)
 
 

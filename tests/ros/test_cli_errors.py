@@ -164,3 +164,10 @@ def test_a_full_disk_is_one_line_and_the_finished_episodes_read_back(tmp_path, f
     assert report.ok and report.episodes == saved, report
     assert max(p.stat().st_size for p in ([bag] if bag.is_file() else bag.iterdir())) <= limit
     assert os.path.exists(bag)
+
+
+def test_info_into_a_closed_pipe_is_quiet(record):
+    bag = record("mcap", episodes=2, steps=3)
+    shell = f"{sys.executable} -m bubblerob_env.cli info {bag} | head -1"
+    result = subprocess.run(["bash", "-c", shell], capture_output=True, text=True, timeout=120)
+    assert result.stdout.startswith("bag:") and result.stderr == "", result.stderr
