@@ -65,10 +65,30 @@ def add_subcommands(subparsers: Any) -> None:
     demo.set_defaults(handler=_run_demo)
 
 
+def _check_policies(command: str, names: list[str], env_id: str, env_kwargs: Any) -> None:
+    """Load each policy once before any episode: a wrong name or file is one line, exit 1."""
+    import gymnasium as gym
+
+    from policies.loading import load_policy
+
+    for name in names:
+        env = gym.make(env_id, **(env_kwargs or {}))
+        try:
+            load_policy(name, env)
+        except (ValueError, TypeError, OSError) as error:
+            raise SystemExit(f"bubblerob {command}: {error}") from None
+        finally:
+            env.close()
+
+
 def _run_demo(args: argparse.Namespace) -> int:
     from policies.demo import main_demo
 
-    return main_demo(args.policy, args.episodes, args.seed, args.out, not args.no_video)
+    _check_policies("demo", [args.policy], "BubbleRob-v0", None)
+    try:
+        return main_demo(args.policy, args.episodes, args.seed, args.out, not args.no_video)
+    except OSError as error:  # an unwritable --out: the recorder or the video says where
+        raise SystemExit(f"bubblerob demo: {error}") from None
 
 
 def _run_evaluate(args: argparse.Namespace) -> int:
@@ -80,6 +100,7 @@ def _run_evaluate(args: argparse.Namespace) -> int:
             raise SystemExit(f"--video must end in .mp4 or .gif, got {args.video}")
         if args.video_policy is not None and args.video_policy not in args.policy:
             raise SystemExit(f"--video-policy {args.video_policy} is not one of --policy")
+    _check_policies("evaluate", list(args.policy), args.env, args.env_kwargs)
     results = [
         evaluate(name, args.episodes, args.seed, args.env, args.env_kwargs, progress=True)
         for name in args.policy
