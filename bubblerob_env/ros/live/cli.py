@@ -63,7 +63,7 @@ def add_node_subcommand(subparsers: Any) -> None:
         type=int,
         choices=(1, 2),
         default=1,
-        help="ROS 1 (rospy, default) or ROS 2 (rclpy, Jazzy; tested with the ros-jazzy wheels in .venv-ros2)",
+        help="ROS 1 (rospy, default) or ROS 2 (rclpy, Jazzy)",
     )
     mode = node.add_mutually_exclusive_group()
     mode.add_argument(
