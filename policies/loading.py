@@ -95,7 +95,9 @@ def load_policy(
         name_or_path: ``"reactive"``, ``"laser"``, ``"random"``, ``"ppo"`` (the shipped trained
             policy, run with onnxruntime), the path of an ONNX file written by
             ``python -m policies.export_onnx``, or the path of an SB3 ``.zip`` (PPO or SAC; needs
-            the [train] extra).
+            the [train] extra). A model whose run's ``config.yml`` has an ``env_wrapper`` of
+            :class:`~bubblerob_env.wrappers.LaserPooling` is fed the env's scan min-pooled the
+            same way (:class:`PooledPolicy`; ONNX exports do it inside the graph).
         env: The env (or a wrapper of it) the policy will act in: its action type, speed limits
             and laser geometry shape the built-in controllers' actions, and a trained policy is
             checked against the env it was trained for.

@@ -10,6 +10,10 @@ overrides), ``settings.json`` (the project-only settings), ``command.txt`` (the 
 reproduces it), ``versions.json`` (package versions), TensorBoard logs, checkpoints,
 ``evaluations.npz`` and ``best_model.zip`` from periodic evaluation on held-out seeds, and the final
 ``model.zip``.
+
+rl-zoo's ``env_wrapper`` key (``"module.Class"``, ``{"module.Class": {kwargs}}`` or a list of
+those) wraps every training and evaluation env, e.g. ``bubblerob_env.wrappers.LaserPooling``;
+``load_policy`` and the ONNX export replay that pooling on the env's full scan.
 """
 
 from __future__ import annotations
