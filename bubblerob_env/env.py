@@ -131,9 +131,10 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
     - v0 (2026-11-24 revision): obstacles are solid. Before, each obstacle slot was a geom of the
       world body moved after compilation, and MuJoCo's midphase kept its compile-time bounding
       box, so 17 of the 20 slots let the robot drive through (148 of 182 drives at obstacles).
-      Each slot is now a mocap body. Also: ``info["is_success"]`` on the last step; bad
-      ``start_pose``, non-finite reward weights, physics steps over 0.05 s, image sizes outside
-      [1, 4096] and more than 256 obstacles are rejected; a diverged simulation truncates;
+      Each slot is now a mocap body. Also: ``info["is_success"]`` on every step (on the last,
+      the episode's success); bad ``start_pose``, non-finite reward weights, physics steps over
+      0.05 s, image sizes outside [1, 4096] and more than 256 obstacles are rejected; a diverged
+      simulation truncates;
       ``metadata["render_fps"]`` is ``1 / control_timestep``; the camera's OpenGL context is made
       on first use (fork-safe) and the env pickles. The id stays v0: no release had the old world
       as a documented behaviour worth keeping, and every result measured on it was re-measured.
