@@ -20,7 +20,8 @@ __all__ = ["HelpFormatter", "build_parser", "main"]
 
 # Modules that define ``add_subcommands(subparsers)``: the extra their subcommands need, and the
 # subcommands they add (listed here so that they show, and explain themselves, without the extra).
-_SUBCOMMAND_MODULES: tuple[tuple[str, str, tuple[str, ...]], ...] = (
+_SUBCOMMAND_MODULES: tuple[tuple[str, str | None, tuple[str, ...]], ...] = (
+    ("policies.teleop", None, ("teleop",)),
     ("bubblerob_env.ros.cli", "ros", ("record", "info", "replay", "node")),
     ("policies.cli", "demo", ("evaluate", "demo")),
     ("train.cli", "train", ("train",)),
@@ -37,6 +38,7 @@ EXAMPLES = {
     "info": "bubblerob info bags/bubblerob_laser_seed0",
     "replay": "bubblerob replay bags/bubblerob_laser_seed0",
     "node": "bubblerob node --rate-factor 1 --namespace robot2",
+    "teleop": "bubblerob teleop --start-pose 0 0 0 --record bags/drive",
 }
 
 
@@ -97,7 +99,7 @@ def build_parser() -> argparse.ArgumentParser:
         try:
             module = importlib.import_module(module_name)
         except ModuleNotFoundError as error:
-            if error.name is None or error.name.split(".")[0] in _OWN_PACKAGES:
+            if extra is None or error.name is None or error.name.split(".")[0] in _OWN_PACKAGES:
                 raise  # a bug in this package, not a missing extra
             for name in names:
                 _missing_extra_stub(subparsers, name, extra)
@@ -125,6 +127,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     handler = getattr(args, "handler", None)
     if handler is None:  # a stub: the module that defines the command could not be imported
         extra = next(e for _, e, names in _SUBCOMMAND_MODULES if args.command in names)
+        assert extra is not None  # a module without an extra is never stubbed
         require_extra(extra, f"bubblerob {args.command}")
         raise SystemExit(
             f"bubblerob {args.command} needs the [{extra}] extra: pip install 'bubblerob[{extra}]'"

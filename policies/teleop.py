@@ -1,0 +1,184 @@
+"""``bubblerob teleop``: drive BubbleRob from the keyboard in a terminal (curses), at real time.
+
+Keys: Up/Down or W/S change the forward speed, Left/Right or A/D change the turn rate, space
+stops, q quits. A status line shows the commanded and measured speed, the nearest laser reading
+and the collisions so far. The env runs in twist mode at its own control rate (20 Hz by default),
+paced to wall-clock time. ``--record DIR`` wraps the env in the ROS bag recorder (the ``ros``
+extra, imported only then). At exit one line ``final pose: x=.. y=.. yaw=..`` is printed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import curses
+import time
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+__all__ = ["KEYS", "TeleopState", "add_subcommands", "run_teleop"]
+
+LINEAR_STEP = 0.1
+"""Change of the forward command per key press, as a fraction of ``max_linear_speed``."""
+ANGULAR_STEP = 0.1
+"""Change of the turn command per key press, as a fraction of ``max_angular_speed``."""
+
+KEYS: dict[int, tuple[float, float] | str] = {
+    curses.KEY_UP: (LINEAR_STEP, 0.0),
+    ord("w"): (LINEAR_STEP, 0.0),
+    curses.KEY_DOWN: (-LINEAR_STEP, 0.0),
+    ord("s"): (-LINEAR_STEP, 0.0),
+    curses.KEY_LEFT: (0.0, ANGULAR_STEP),
+    ord("a"): (0.0, ANGULAR_STEP),
+    curses.KEY_RIGHT: (0.0, -ANGULAR_STEP),
+    ord("d"): (0.0, -ANGULAR_STEP),
+    ord(" "): "stop",
+    ord("q"): "quit",
+}
+
+
+class TeleopState:
+    """The commanded twist, as fractions of the env's limits, changed key by key."""
+
+    def __init__(self) -> None:
+        """Start at rest."""
+        self.linear = 0.0
+        self.angular = 0.0
+        self.quit = False
+
+    def press(self, key: int) -> None:
+        """Apply one key (unknown keys are ignored); upper-case letters act as lower-case."""
+        if ord("A") <= key <= ord("Z"):
+            key = key - ord("A") + ord("a")
+        effect = KEYS.get(key)
+        if effect == "stop":
+            self.linear = self.angular = 0.0
+        elif effect == "quit":
+            self.quit = True
+        elif isinstance(effect, tuple):
+            self.linear = float(np.clip(round(self.linear + effect[0], 6), -1.0, 1.0))
+            self.angular = float(np.clip(round(self.angular + effect[1], 6), -1.0, 1.0))
+
+    @property
+    def action(self) -> np.ndarray[Any, np.dtype[np.float32]]:
+        """The twist action ``[linear, angular]``."""
+        return np.array([self.linear, self.angular], dtype=np.float32)
+
+
+def _status(state: TeleopState, info: dict[str, Any], nearest: float, collisions: int) -> str:
+    """The status line: commanded and measured speed, nearest laser reading, collisions."""
+    forward = float(info["body_twist"][0])
+    return (
+        f"cmd lin {state.linear:+.1f} ang {state.angular:+.1f} | speed {forward:+.2f} m/s "
+        f"| nearest {nearest:.2f} m | collisions {collisions}"
+    )
+
+
+def run_teleop(
+    screen: Any,
+    env: gym.Env[Any, Any],
+    seed: int | None,
+    max_seconds: float | None = None,
+) -> dict[str, Any]:
+    """Drive ``env`` (twist actions) from ``screen``'s keys until q; return the last info."""
+    curses.curs_set(0)
+    screen.nodelay(True)
+    screen.keypad(True)
+    state = TeleopState()
+    obs, info = env.reset(seed=seed)
+    dt = float(env.unwrapped.dt)  # type: ignore[attr-defined]
+    collisions = 0
+    started = next_tick = time.monotonic()
+    episode = 0
+    while not state.quit:
+        while (key := screen.getch()) != -1:
+            state.press(key)
+        if state.quit:
+            break
+        obs, _, terminated, truncated, info = env.step(state.action)
+        collisions += bool(info["collision"])
+        nearest = float(np.min(obs["laser"])) if "laser" in obs else float("nan")
+        screen.erase()
+        screen.addstr(0, 0, "BubbleRob teleop: arrows/WASD drive, space stops, q quits")
+        width = max(screen.getmaxyx()[1] - 1, 1)
+        screen.addstr(1, 0, _status(state, info, nearest, collisions)[:width])
+        pose = f"pose x={info['x']:+.2f} y={info['y']:+.2f} yaw={info['yaw']:+.2f}"
+        screen.addstr(2, 0, f"{pose} | episode {episode} | sim {info['sim_time']:.1f} s"[:width])
+        screen.refresh()
+        if terminated or truncated:
+            episode += 1
+            state.linear = state.angular = 0.0
+            obs, info = env.reset()
+        next_tick += dt
+        delay = next_tick - time.monotonic()
+        if delay > 0:
+            time.sleep(delay)
+        else:
+            next_tick = time.monotonic()  # fell behind: do not try to catch up in a burst
+        if max_seconds is not None and time.monotonic() - started > max_seconds:
+            break
+    return info
+
+
+def _run(args: argparse.Namespace) -> int:
+    kwargs: dict[str, Any] = {"action_type": "twist"}
+    if args.start_pose is not None:
+        kwargs["start_pose"] = tuple(args.start_pose)
+    if args.num_obstacles is not None:
+        kwargs["num_obstacles"] = tuple(args.num_obstacles)
+    env: gym.Env[Any, Any] = gym.make("BubbleRob-v0", **kwargs)
+    if args.record is not None:
+        from bubblerob_env.extras import require_extra
+
+        require_extra("ros", "bubblerob teleop --record")
+        from bubblerob_env.ros import RosBagRecorder
+
+        env = RosBagRecorder(env, args.record, metadata={"policy": "teleop"})
+    try:
+        info = curses.wrapper(run_teleop, env, args.seed, args.max_seconds)
+    finally:
+        env.close()
+    print(f"final pose: x={info['x']:.4f} y={info['y']:.4f} yaw={info['yaw']:.4f}")
+    if args.record is not None:
+        print(f"recorded: {args.record}")
+    return 0
+
+
+def add_subcommands(subparsers: Any) -> None:
+    """Add ``teleop`` to the ``bubblerob`` command."""
+    parser = subparsers.add_parser(
+        "teleop",
+        help="drive the robot from the keyboard in a terminal (real time)",
+        description="Drive BubbleRob from the keyboard: Up/Down or W/S change the forward speed, "
+        "Left/Right or A/D the turn rate (steps of 0.1 of the limits), space stops, q quits. "
+        "The status line shows speed, the nearest laser reading and collisions; the final pose "
+        "is printed at exit.",
+    )
+    parser.add_argument("--seed", type=int, default=None, help="seed of the first reset")
+    parser.add_argument(
+        "--start-pose",
+        type=float,
+        nargs=3,
+        metavar=("X", "Y", "YAW"),
+        default=None,
+        help="fixed start pose (m, m, rad); default: random",
+    )
+    parser.add_argument(
+        "--num-obstacles",
+        type=int,
+        nargs=2,
+        metavar=("MIN", "MAX"),
+        default=None,
+        help="inclusive range of obstacles per episode; default: the env's (4 10)",
+    )
+    parser.add_argument(
+        "--record", metavar="DIR", default=None, help="record the drive as a bag (ros extra)"
+    )
+    parser.add_argument(
+        "--max-seconds",
+        type=float,
+        default=None,
+        help="quit after this many wall-clock seconds; default: only on q",
+    )
+    parser.set_defaults(handler=_run)

@@ -1,0 +1,91 @@
+"""``bubblerob teleop`` in a real terminal: tmux sends keys, reads the screen and the final pose."""
+
+from __future__ import annotations
+
+import math
+import re
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from policies.teleop import TeleopState
+
+pytestmark = pytest.mark.skipif(shutil.which("tmux") is None, reason="needs tmux")
+
+
+def test_keys_change_the_twist():
+    state = TeleopState()
+    for key in b"www":
+        state.press(key)
+    state.press(ord("a"))
+    assert (state.linear, state.angular) == (pytest.approx(0.3), pytest.approx(0.1))
+    state.press(ord(" "))
+    assert (state.linear, state.angular) == (0.0, 0.0)
+    for _ in range(20):
+        state.press(ord("W"))
+    assert state.linear == 1.0
+    state.press(ord("q"))
+    assert state.quit
+
+
+def _tmux(*args: str) -> str:
+    return subprocess.run(
+        ["tmux", *args], check=True, capture_output=True, text=True, timeout=30
+    ).stdout
+
+
+def test_forward_keys_drive_along_the_start_heading(tmp_path: Path):
+    session = f"bubblerob-teleop-{id(tmp_path)}"
+    bag = tmp_path / "drive"
+    # Start at the centre facing +y (yaw pi/2), no obstacles: forward must move +y, not x.
+    command = (
+        f"{sys.executable} -m bubblerob_env.cli teleop --start-pose 0 0 1.5708 "
+        f"--num-obstacles 0 0 --seed 0 --max-seconds 60 --record {bag}; sleep 30"
+    )
+    _tmux("new-session", "-d", "-s", session, "-x", "200", "-y", "20", command)
+    try:
+        screen = ""
+        for _ in range(300):
+            screen = _tmux("capture-pane", "-p", "-t", session)
+            if "nearest" in screen:
+                break
+            time.sleep(0.1)
+        assert "BubbleRob teleop" in screen and "collisions 0" in screen, repr(screen)
+        _tmux("send-keys", "-t", session, "w", "w", "w", "Up", "Up")  # forward 0.5
+        time.sleep(2.0)
+        screen = _tmux("capture-pane", "-p", "-t", session)
+        assert "cmd lin +0.5 ang +0.0" in screen, screen
+        speed = float(re.search(r"speed ([+-][\d.]+) m/s", screen).group(1))
+        assert speed > 0.1, screen
+        _tmux("send-keys", "-t", session, "Space")
+        time.sleep(1.0)
+        _tmux("send-keys", "-t", session, "q")
+        text = ""
+        for _ in range(200):  # curses gives the screen back, then the pose is printed
+            text = _tmux("capture-pane", "-p", "-t", session)
+            if "final pose" in text:
+                break
+            time.sleep(0.1)
+    finally:
+        subprocess.run(["tmux", "kill-session", "-t", session], check=False, timeout=30)
+    match = re.search(r"final pose: x=(\S+) y=(\S+) yaw=(\S+)", text)
+    assert match, text
+    x, y, yaw = (float(v) for v in match.groups())
+    assert y > 0.3, text  # forward along the start heading (+y)
+    assert abs(x) < 0.1 * y, text  # no sideways drift
+    assert abs(yaw - math.pi / 2) < 0.1, text
+    print(f"keys w w w Up Up, 2 s, Space, q -> final pose x={x} y={y} yaw={yaw}")
+    # The recorded bag's last /odom pose is the printed one.
+    rosbags = pytest.importorskip("rosbags.highlevel")
+    with rosbags.AnyReader([bag]) as reader:
+        odom = [c for c in reader.connections if c.topic == "/odom"]
+        last = None
+        for connection, _, raw in reader.messages(connections=odom):
+            last = reader.deserialize(raw, connection.msgtype)
+    assert last is not None
+    assert last.pose.pose.position.x == pytest.approx(x, abs=1e-3)
+    assert last.pose.pose.position.y == pytest.approx(y, abs=1e-3)
