@@ -1,0 +1,168 @@
+"""Occupancy grids of the arena: the ground truth of an episode and a log-odds laser mapper.
+
+Grids follow ``nav_msgs/OccupancyGrid``: ``int8`` cells, row-major from the origin at the grid's
+lower-left corner (row ``i`` is ``y = origin_y + (i + 0.5) * resolution`` at its centre, column
+``j`` likewise in ``x``), 100 occupied, 0 free, -1 unknown. No ROS import: the ROS layer can publish
+these arrays as messages.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bubblerob_env import names
+from bubblerob_env.arena import ArenaLayout
+
+__all__ = [
+    "DEFAULT_RESOLUTION",
+    "Grid",
+    "LogOddsMapper",
+    "episode_grid",
+    "ground_truth_grid",
+    "occupied_iou",
+]
+
+DEFAULT_RESOLUTION = 0.05
+"""Metres per cell."""
+OCCUPIED = 100
+FREE = 0
+UNKNOWN = -1
+
+
+@dataclass(frozen=True)
+class Grid:
+    """An occupancy grid: ``data[row, col]``, origin (m) of the lower-left corner, resolution."""
+
+    data: NDArray[np.int8]
+    origin: tuple[float, float]
+    resolution: float
+
+    @property
+    def centres(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The x and y of every cell's centre, each shaped like ``data``."""
+        rows, cols = self.data.shape
+        xs = self.origin[0] + (np.arange(cols) + 0.5) * self.resolution
+        ys = self.origin[1] + (np.arange(rows) + 0.5) * self.resolution
+        x, y = np.meshgrid(xs, ys)
+        return x, y
+
+
+def ground_truth_grid(
+    layout: ArenaLayout,
+    arena_size: float,
+    wall_thickness: float = 0.1,
+    resolution: float = DEFAULT_RESOLUTION,
+) -> Grid:
+    """The arena's walls and ``layout``'s obstacle footprints; a cell is occupied if its centre is.
+
+    The grid covers the inside square and the walls around it (``wall_thickness`` m each).
+    """
+    outer = arena_size / 2.0 + wall_thickness
+    cells = math.ceil(round(2 * outer / resolution, 9))
+    origin = (-cells * resolution / 2.0, -cells * resolution / 2.0)
+    grid = Grid(np.zeros((cells, cells), dtype=np.int8), origin, resolution)
+    x, y = grid.centres
+    half = arena_size / 2.0
+    occupied = (np.abs(x) > half) | (np.abs(y) > half)
+    for obstacle in layout.obstacles:
+        dx, dy = x - obstacle.x, y - obstacle.y
+        if obstacle.kind == "cylinder":
+            occupied |= np.hypot(dx, dy) <= obstacle.size[0]
+        else:
+            c, s = math.cos(obstacle.yaw), math.sin(obstacle.yaw)
+            local_x, local_y = c * dx + s * dy, -s * dx + c * dy
+            occupied |= (np.abs(local_x) <= obstacle.size[0]) & (
+                np.abs(local_y) <= obstacle.size[1]
+            )
+    grid.data[occupied] = OCCUPIED
+    return grid
+
+
+def episode_grid(env: Any, resolution: float = DEFAULT_RESOLUTION) -> Grid:
+    """The ground-truth grid of ``env``'s current episode (call after ``reset``)."""
+    base = env.unwrapped
+    model = base.model
+    thickness = 0.0
+    for name in names.ARENA_WALLS:
+        size = model.geom(name).size
+        thickness = max(thickness, 2.0 * float(min(size[0], size[1])))
+    return ground_truth_grid(base.layout, float(base.arena_size), thickness, resolution)
+
+
+class LogOddsMapper:
+    """A log-odds occupancy mapper of 2D laser scans on a fixed grid.
+
+    Each beam lowers the log odds of the cells it crosses and, if it hit something before its
+    maximum range, raises the log odds of the cell at its end.
+    """
+
+    def __init__(
+        self,
+        like: Grid,
+        hit: float = 0.85,
+        miss: float = -0.4,
+        clamp: float = 5.0,
+    ) -> None:
+        """Map onto a grid of ``like``'s shape, origin and resolution."""
+        self.origin = like.origin
+        self.resolution = like.resolution
+        self.log_odds: NDArray[np.float64] = np.zeros(tuple(like.data.shape), dtype=np.float64)
+        self.hit, self.miss, self.clamp = hit, miss, clamp
+
+    def _cells(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.int64]:
+        cols = np.floor((x - self.origin[0]) / self.resolution).astype(np.int64)
+        rows = np.floor((y - self.origin[1]) / self.resolution).astype(np.int64)
+        rows_n, cols_n = self.log_odds.shape[:2]
+        inside = (rows >= 0) & (rows < rows_n) & (cols >= 0) & (cols < cols_n)
+        flat: NDArray[np.int64] = np.where(inside, rows * cols_n + cols, -1)
+        return flat
+
+    def add_scan(
+        self,
+        pose: tuple[float, float, float],
+        angles: NDArray[np.float64],
+        ranges: NDArray[np.float64],
+        range_max: float,
+    ) -> None:
+        """Add one scan taken by a laser at ``pose`` (x, y, yaw in the map frame)."""
+        x0, y0, yaw = pose
+        ranges = np.asarray(ranges, dtype=np.float64)
+        valid = np.isfinite(ranges)
+        ranges = np.where(valid, ranges, range_max)
+        hit = valid & (ranges < range_max - 1e-6)
+        directions = yaw + np.asarray(angles, dtype=np.float64)
+        step = self.resolution / 2.0
+        flat = self.log_odds.reshape(-1)
+        free_cells: list[NDArray[np.int64]] = []
+        for distance, angle in zip(ranges, directions, strict=True):
+            samples = np.arange(0.0, max(distance - self.resolution, 0.0), step)
+            cells = self._cells(x0 + samples * math.cos(angle), y0 + samples * math.sin(angle))
+            free_cells.append(cells[cells >= 0])
+        if free_cells:
+            free = np.unique(np.concatenate(free_cells))
+            flat[free] += self.miss
+        ends = self._cells(x0 + ranges * np.cos(directions), y0 + ranges * np.sin(directions))
+        ends = np.unique(ends[hit & (ends >= 0)])
+        flat[ends] += self.hit
+        np.clip(self.log_odds, -self.clamp, self.clamp, out=self.log_odds)
+
+    def grid(self) -> Grid:
+        """The map: occupied where the log odds are positive, free where negative, else unknown."""
+        data = np.full(self.log_odds.shape, UNKNOWN, dtype=np.int8)
+        data[self.log_odds > 0] = OCCUPIED
+        data[self.log_odds < 0] = FREE
+        return Grid(data, self.origin, self.resolution)
+
+
+def occupied_iou(a: Grid, b: Grid) -> float:
+    """Intersection over union of the occupied cells of two grids of the same shape."""
+    if a.data.shape != b.data.shape:
+        raise ValueError(f"grids differ in shape: {a.data.shape} and {b.data.shape}")
+    occ_a, occ_b = a.data == OCCUPIED, b.data == OCCUPIED
+    union = int(np.count_nonzero(occ_a | occ_b))
+    return int(np.count_nonzero(occ_a & occ_b)) / union if union else 1.0

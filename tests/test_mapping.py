@@ -1,0 +1,73 @@
+"""The ground-truth occupancy grid against MuJoCo itself, and the log-odds mapper."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+import pytest
+
+import bubblerob_env  # noqa: F401 - registers BubbleRob-v0
+from bubblerob_env.mapping import (
+    OCCUPIED,
+    Grid,
+    LogOddsMapper,
+    episode_grid,
+    occupied_iou,
+)
+
+
+def _raycast_grid(env: gym.Env, grid: Grid) -> np.ndarray:
+    """Independently: a ray straight down onto each cell's centre; occupied if it meets no floor."""
+    base = env.unwrapped
+    model, data = base.model, base.data
+    floor = model.geom("floor").id
+    # Only the groups of the floor, the walls and the obstacles: the robot is not the map.
+    groups = {int(model.geom_group[model.geom(n).id]) for n in ("floor", "wall_north")}
+    groups |= {int(model.geom_group[g]) for g in base._slots.geom_ids}
+    robot_groups = {int(model.geom_group[model.geom("right_wheel").id])}
+    assert not groups & robot_groups
+    geomgroup = np.array([int(g in groups) for g in range(6)], dtype=np.uint8)
+    x, y = grid.centres
+    out = np.zeros(grid.data.shape, dtype=np.int8)
+    geomid = np.zeros(1, dtype=np.int32)
+    down = np.array([0.0, 0.0, -1.0])
+    for index in np.ndindex(grid.data.shape):
+        start = np.array([x[index], y[index], 1.0])
+        mujoco.mj_ray(model, data, start, down, geomgroup, 1, -1, geomid)
+        out[index] = OCCUPIED if geomid[0] not in (-1, floor) else 0
+    return out
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_ground_truth_agrees_with_the_scene_cell_by_cell(seed):
+    env = gym.make("BubbleRob-v0", laser_num_rays=0)
+    try:
+        env.reset(seed=seed)
+        grid = episode_grid(env)
+        assert grid.resolution == 0.05
+        rows, cols = grid.data.shape
+        assert rows == cols == 84  # 4 m inside + 2 x 0.1 m walls
+        assert grid.origin == pytest.approx((-2.1, -2.1))
+        expected = _raycast_grid(env, grid)
+        wrong = np.argwhere(grid.data != expected)
+        assert len(wrong) == 0, wrong[:10]
+        assert np.count_nonzero(grid.data == OCCUPIED) > 4 * 2 * 80  # walls and obstacles
+    finally:
+        env.close()
+
+
+def test_mapper_marks_a_wall_hit_occupied_and_the_beam_free():
+    like = Grid(np.zeros((40, 40), dtype=np.int8), (-1.0, -1.0), 0.05)
+    mapper = LogOddsMapper(like)
+    for _ in range(3):  # one beam along +x from the centre, hitting at x = 0.5
+        mapper.add_scan((0.0, 0.0, 0.0), np.array([0.0]), np.array([0.5]), range_max=5.0)
+    grid = mapper.grid()
+    row = 20
+    assert grid.data[row, 30] == OCCUPIED  # x = 0.5 lies in column (0.5 + 1) / 0.05 = 30
+    assert (grid.data[row, 21:29] == 0).all()
+    assert grid.data[row + 5, 30] == -1
+    assert occupied_iou(grid, grid) == 1.0
+    assert math.isclose(occupied_iou(grid, Grid(grid.data * 0, grid.origin, 0.05)), 0.0)
