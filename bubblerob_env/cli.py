@@ -23,6 +23,7 @@ __all__ = ["HelpFormatter", "build_parser", "main"]
 _SUBCOMMAND_MODULES: tuple[tuple[str, str | None, tuple[str, ...]], ...] = (
     ("policies.teleop", None, ("teleop",)),
     ("bubblerob_env.ros.cli", "ros", ("record", "info", "replay", "node")),
+    ("policies.bag_map", "ros", ("map",)),
     ("policies.cli", "demo", ("evaluate", "demo")),
     ("train.cli", "train", ("train",)),
 )
@@ -38,6 +39,7 @@ EXAMPLES = {
     "info": "bubblerob info bags/bubblerob_laser_seed0",
     "replay": "bubblerob replay bags/bubblerob_laser_seed0",
     "node": "bubblerob node --rate-factor 1 --namespace robot2",
+    "map": "bubblerob map bags/bubblerob_laser_seed0 --out map.png",
     "teleop": "bubblerob teleop --start-pose 0 0 0 --record bags/drive",
 }
 

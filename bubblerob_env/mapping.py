@@ -107,8 +107,15 @@ class LogOddsMapper:
         hit: float = 0.85,
         miss: float = -0.4,
         clamp: float = 5.0,
+        depth: float | None = None,
     ) -> None:
-        """Map onto a grid of ``like``'s shape, origin and resolution."""
+        """Map onto a grid of ``like``'s shape, origin and resolution.
+
+        ``depth`` (m, default half a cell) moves each hit that far beyond the surface along its
+        beam, so that the occupied cell is one whose centre lies inside the obstacle (a surface
+        point lands in a cell whose centre is outside about half of the time).
+        """
+        self.depth = like.resolution / 2.0 if depth is None else depth
         self.origin = like.origin
         self.resolution = like.resolution
         self.log_odds: NDArray[np.float64] = np.zeros(tuple(like.data.shape), dtype=np.float64)
@@ -146,7 +153,8 @@ class LogOddsMapper:
         if free_cells:
             free = np.unique(np.concatenate(free_cells))
             flat[free] += self.miss
-        ends = self._cells(x0 + ranges * np.cos(directions), y0 + ranges * np.sin(directions))
+        deep = ranges + self.depth
+        ends = self._cells(x0 + deep * np.cos(directions), y0 + deep * np.sin(directions))
         ends = np.unique(ends[hit & (ends >= 0)])
         flat[ends] += self.hit
         np.clip(self.log_odds, -self.clamp, self.clamp, out=self.log_odds)

@@ -71,3 +71,24 @@ def test_mapper_marks_a_wall_hit_occupied_and_the_beam_free():
     assert grid.data[row + 5, 30] == -1
     assert occupied_iou(grid, grid) == 1.0
     assert math.isclose(occupied_iou(grid, Grid(grid.data * 0, grid.origin, 0.05)), 0.0)
+
+
+def test_map_of_a_recorded_laser_episode(tmp_path, capsys):
+    """README's commands for docs/images/map.png, run into tmp_path: IoU >= 0.9."""
+    pytest.importorskip("rosbags")
+    from bubblerob_env.cli import main
+
+    bags = tmp_path / "bags"
+    assert (
+        main(["record", "--policy", "laser", "--episodes", "1", "--seed", "0", "--out", str(bags)])
+        == 0
+    )
+    capsys.readouterr()
+    png = tmp_path / "map.png"
+    assert main(["map", str(bags / "bubblerob_laser_seed0"), "--out", str(png)]) == 0
+    out = capsys.readouterr().out
+    iou = float(out.split("IoU of occupied cells (observed cells): ")[1].split()[0])
+    print(out)
+    assert iou >= 0.9, out
+    assert int(out.split("scans: ")[1].split()[0]) > 500, out
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -1,0 +1,157 @@
+"""``bubblerob map BAG``: an occupancy grid from a recorded bag's ``/scan`` and ``/tf``.
+
+The scans are placed with ``odom -> base_link`` from ``/tf`` and ``base_link -> laser_link`` from
+``/tf_static`` and folded into a :class:`~bubblerob_env.mapping.LogOddsMapper`. The ground truth
+comes from the episode's metadata: the env is re-created from the recorded env id and kwargs and
+reset with the recorded seed, as replay does. ``odom`` is the world frame of the simulation.
+
+The IoU printed is that of the occupied cells over the cells the scans observed (free or
+occupied): the insides of obstacles and walls are never seen by a laser, so they are left out.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from numpy.typing import NDArray
+
+from bubblerob_env.mapping import (
+    DEFAULT_RESOLUTION,
+    OCCUPIED,
+    UNKNOWN,
+    Grid,
+    LogOddsMapper,
+    episode_grid,
+    occupied_iou,
+)
+
+__all__ = ["MapResult", "add_subcommands", "map_bag", "map_png"]
+
+
+class MapResult:
+    """The mapped grid, the ground truth and the IoU of occupied cells over observed cells."""
+
+    def __init__(self, mapped: Grid, truth: Grid, scans: int) -> None:
+        """Compare ``mapped`` with ``truth`` on the cells the mapper observed."""
+        self.mapped, self.truth, self.scans = mapped, truth, scans
+        observed = mapped.data != UNKNOWN
+        seen_truth = np.where(observed, truth.data, 0).astype(np.int8)
+        self.iou = occupied_iou(mapped, Grid(seen_truth, truth.origin, truth.resolution))
+        self.iou_all = occupied_iou(mapped, truth)
+
+
+def _yaw(q: Any) -> float:
+    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
+
+def _stamp(header: Any) -> int:
+    return int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec)
+
+
+def map_bag(
+    path: str | Path, episode: int = 0, resolution: float = DEFAULT_RESOLUTION
+) -> MapResult:
+    """Map episode ``episode`` (its index in the bag) of the bag at ``path``."""
+    from bubblerob_env.ros.readback.summary import bag_root, find_episodes, open_reader
+
+    with open_reader(bag_root(path)) as reader:
+        _, episodes = find_episodes(reader)
+        if not episodes:
+            raise SystemExit(f"{path}: no episode metadata in the bag")
+        meta = episodes[episode]
+        start = int(meta["start_time_ns"])
+        end = int(episodes[episode + 1]["start_time_ns"]) if episode + 1 < len(episodes) else None
+        laser_offset = (0.0, 0.0, 0.0)
+        poses: dict[int, tuple[float, float, float]] = {}
+        scans: list[tuple[int, Any]] = []
+        wanted = [c for c in reader.connections if c.topic in ("/tf", "/tf_static", "/scan")]
+        for connection, _, raw in reader.messages(connections=wanted):
+            message = reader.deserialize(raw, connection.msgtype)
+            if connection.topic == "/scan":
+                stamp = _stamp(message.header)
+                if stamp >= start and (end is None or stamp < end):
+                    scans.append((stamp, message))
+                continue
+            for transform in message.transforms:
+                t, q = transform.transform.translation, transform.transform.rotation
+                pose = (float(t.x), float(t.y), _yaw(q))
+                if transform.child_frame_id.endswith("laser_link"):
+                    laser_offset = pose
+                elif transform.child_frame_id.endswith("base_link"):
+                    poses[_stamp(transform.header)] = pose
+    env = gym.make(meta["env_id"], **{**(meta.get("env_kwargs") or {}), "render_mode": None})
+    try:
+        env.reset(seed=meta.get("seed"), options=meta.get("options"))
+        truth = episode_grid(env, resolution)
+    finally:
+        env.close()
+    mapper = LogOddsMapper(truth)
+    used = 0
+    for stamp, scan in scans:
+        base = poses.get(stamp)
+        if base is None:
+            continue
+        x, y, yaw = base
+        ox, oy, oyaw = laser_offset
+        laser = (
+            x + ox * math.cos(yaw) - oy * math.sin(yaw),
+            y + ox * math.sin(yaw) + oy * math.cos(yaw),
+            yaw + oyaw,
+        )
+        ranges = np.asarray(scan.ranges, dtype=np.float64)
+        angles = scan.angle_min + np.arange(len(ranges)) * scan.angle_increment
+        mapper.add_scan(laser, angles, ranges, float(scan.range_max))
+        used += 1
+    return MapResult(mapper.grid(), truth, used)
+
+
+def _image(grid: Grid) -> NDArray[np.uint8]:
+    """Grey levels: occupied black, free white, unknown grey; north up."""
+    picture = np.full(grid.data.shape, 160, dtype=np.uint8)
+    picture[grid.data == OCCUPIED] = 0
+    picture[grid.data == 0] = 255
+    return picture[::-1]
+
+
+def map_png(result: MapResult, out: str | Path, scale: int = 4) -> Path:
+    """Write the mapped grid (left) beside the ground truth (right) as a PNG."""
+    import imageio.v3 as iio
+
+    left, right = _image(result.mapped), _image(result.truth)
+    gap = np.full((left.shape[0], 4), 96, dtype=np.uint8)
+    picture = np.hstack([left, gap, right]).repeat(scale, axis=0).repeat(scale, axis=1)
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    iio.imwrite(out, picture)
+    return out
+
+
+def _run(args: argparse.Namespace) -> int:
+    result = map_bag(args.bag, args.episode, args.resolution)
+    out = map_png(result, args.out)
+    print(f"scans: {result.scans}")
+    print(f"IoU of occupied cells (observed cells): {result.iou:.3f}")
+    print(f"IoU of occupied cells (all cells): {result.iou_all:.3f}")
+    print(f"wrote {out} (mapped left, ground truth right)")
+    return 0
+
+
+def add_subcommands(subparsers: Any) -> None:
+    """Add ``map`` to the ``bubblerob`` command."""
+    parser = subparsers.add_parser(
+        "map",
+        help="occupancy grid from a bag's /scan and /tf, beside the ground truth, with the IoU",
+        description="Build an occupancy grid from a recorded bag's /scan and /tf (log odds), "
+        "write a PNG of it beside the episode's ground-truth grid and print the IoU of the "
+        "occupied cells over the cells the scans observed (and over all cells).",
+    )
+    parser.add_argument("bag", help="the bag (ROS 1 .bag file or ROS 2 directory)")
+    parser.add_argument("--episode", type=int, default=0, help="index of the episode to map")
+    parser.add_argument("--resolution", type=float, default=DEFAULT_RESOLUTION, help="m/cell")
+    parser.add_argument("--out", default="map.png", help="PNG to write")
+    parser.set_defaults(handler=_run)
