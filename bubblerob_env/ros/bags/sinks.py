@@ -158,7 +158,18 @@ class BagSink:
         """Put everything written so far on disk (data only; the index comes with ``close``)."""
 
     def close(self) -> None:
-        """Finish the file: write the index and summary. Safe to call twice."""
+        """Finish the file (index and summary), then give back the bag's lock. Safe twice."""
+        if self.closed:
+            return
+        self.closed = True
+        try:
+            self._finish()
+        finally:
+            if self.lock is not None:
+                self.lock.release()
+
+    def _finish(self) -> None:
+        """Write the format's index and summary and close the file."""
         raise NotImplementedError
 
     @property
@@ -208,14 +219,8 @@ class _Ros1Sink(BagSink):
     def flush(self) -> None:
         self._writer.flush()
 
-    def close(self) -> None:
-        if not self.closed:
-            self.closed = True
-            try:
-                self._writer.close()
-            finally:
-                if self.lock is not None:
-                    self.lock.release()
+    def _finish(self) -> None:
+        self._writer.close()
 
 
 def _qos(latched: bool) -> list[Qos]:
@@ -293,14 +298,8 @@ class _Rosbag2Sink(BagSink):
     def flush(self) -> None:
         self._writer.flush()
 
-    def close(self) -> None:
-        if not self.closed:
-            self.closed = True
-            try:
-                self._writer.close()
-            finally:
-                if self.lock is not None:
-                    self.lock.release()
+    def _finish(self) -> None:
+        self._writer.close()
 
 
 def open_bag(
