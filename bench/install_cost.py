@@ -51,6 +51,7 @@ def build_wheel(out: Path) -> Path:
             str(source),
         ],
         check=True,
+        timeout=300,
     )
     (wheel,) = out.glob("bubblerob-*.whl")
     return wheel

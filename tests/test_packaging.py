@@ -10,8 +10,8 @@ demo runs with torch and SB3 made unimportable.
 
 from __future__ import annotations
 
+import importlib.util
 import os
-import shutil
 import subprocess
 import sys
 import sysconfig
@@ -37,36 +37,15 @@ def _tracked_data_files() -> list[str]:
 
 @pytest.fixture(scope="module")
 def wheel(tmp_path_factory) -> Path:
-    # Built from a clean copy of the sources: setuptools builds in the source tree, and a stale
-    # build/ folder there could add files that no longer exist.
-    source = tmp_path_factory.mktemp("source")
-    for name in ("pyproject.toml", "README.md"):
-        shutil.copy2(ROOT / name, source / name)
-    for package in PACKAGES:
-        shutil.copytree(
-            ROOT / package, source / package, ignore=shutil.ignore_patterns("__pycache__")
-        )
-    out = tmp_path_factory.mktemp("wheel")
-    subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "pip",
-            "wheel",
-            "--no-deps",
-            "--no-build-isolation",
-            "-q",
-            "-w",
-            str(out),
-            str(source),
-        ],
-        check=True,
-        capture_output=True,
-        text=True,
-        timeout=300,
+    # Built from a clean copy of the sources (a stale build/ folder in the tree could add files
+    # that no longer exist), the way bench/install_cost.py builds the wheel it installs.
+    spec = importlib.util.spec_from_file_location(
+        "bench_install_cost", ROOT / "bench" / "install_cost.py"
     )
-    (path,) = out.glob("bubblerob-*.whl")
-    return path
+    assert spec is not None and spec.loader is not None
+    install_cost = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(install_cost)
+    return Path(install_cost.build_wheel(tmp_path_factory.mktemp("wheel")))
 
 
 @pytest.fixture(scope="module")
