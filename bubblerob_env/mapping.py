@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
@@ -20,15 +21,20 @@ from bubblerob_env.arena import ArenaLayout
 
 __all__ = [
     "DEFAULT_RESOLUTION",
+    "RESOLUTION_RANGE",
     "Grid",
     "LogOddsMapper",
+    "check_resolution",
     "episode_grid",
+    "has_arena",
     "ground_truth_grid",
     "occupied_iou",
 ]
 
 DEFAULT_RESOLUTION = 0.05
 """Metres per cell."""
+RESOLUTION_RANGE = (0.005, 1.0)
+"""Allowed metres per cell, inclusive (a 4 m arena: 840 to 5 cells a side)."""
 OCCUPIED = 100
 FREE = 0
 UNKNOWN = -1
@@ -52,6 +58,24 @@ class Grid:
         return x, y
 
 
+def check_resolution(resolution: Any) -> float:
+    """``resolution`` (metres per cell) as a float, or a ``ValueError`` naming it and the range.
+
+    Accepts numbers and their text (a command-line value).
+    """
+    low, high = RESOLUTION_RANGE
+    try:
+        value = float(resolution)
+    except (TypeError, ValueError):
+        value = math.nan
+    if not low <= value <= high:  # NaN fails too
+        raise ValueError(
+            f"map resolution {resolution!r} is not a number of metres per cell from {low:g} to "
+            f"{high:g}"
+        )
+    return value
+
+
 def ground_truth_grid(
     layout: ArenaLayout,
     arena_size: float,
@@ -62,6 +86,7 @@ def ground_truth_grid(
 
     The grid covers the inside square and the walls around it (``wall_thickness`` m each).
     """
+    resolution = check_resolution(resolution)
     outer = arena_size / 2.0 + wall_thickness
     cells = math.ceil(round(2 * outer / resolution, 9))
     origin = (-cells * resolution / 2.0, -cells * resolution / 2.0)
@@ -83,8 +108,18 @@ def ground_truth_grid(
     return grid
 
 
+def has_arena(env: Any) -> bool:
+    """Whether ``env``'s scene has the arena's walls (a scene from ``xml_file`` may not)."""
+    model = env.unwrapped.model
+    geom = mujoco.mjtObj.mjOBJ_GEOM
+    return all(mujoco.mj_name2id(model, geom, name) >= 0 for name in names.ARENA_WALLS)
+
+
 def episode_grid(env: Any, resolution: float = DEFAULT_RESOLUTION) -> Grid:
-    """The ground-truth grid of ``env``'s current episode (call after ``reset``)."""
+    """The ground-truth grid of ``env``'s current episode (call after ``reset``).
+
+    Needs the arena's walls (:func:`has_arena`): other scenes raise ``KeyError``.
+    """
     base = env.unwrapped
     model = base.model
     thickness = 0.0

@@ -15,6 +15,7 @@ import gymnasium as gym
 import numpy as np
 
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
+from bubblerob_env.mapping import check_resolution
 from bubblerob_env.ros.bags.sinks import COMPRESSIONS, FORMATS
 from bubblerob_env.ros.messages.topics import PRESETS, topics_preset
 from bubblerob_env.ros.readback.replay import ReplayError, replay_bag
@@ -54,6 +55,12 @@ def add_subcommands(subparsers: Any) -> None:
         "--start-time",
         default=None,
         help="stamp of the first frame: Unix seconds or an ISO 8601 date (default: now)",
+    )
+    record.add_argument(
+        "--map-resolution",
+        default="0.05",
+        metavar="M",
+        help="metres per cell of each episode's /map, 0.005 to 1",
     )
     record.add_argument("--no-progress", action="store_true", help="no progress bar")
     record.add_argument("--out", type=Path, required=True, help="directory for the bag")
@@ -124,6 +131,7 @@ def _record(args: argparse.Namespace) -> int:
             metadata={"policy": args.policy, "command": shlex.join(["bubblerob", *sys.argv[1:]])},
             per_episode=args.per_episode,
             start_time=args.start_time,
+            map_resolution=check_resolution(args.map_resolution),
         )
     except (OSError, ValueError) as error:
         env.close()

@@ -2,8 +2,9 @@
 
 :class:`EpisodeStream` stamps an episode's frames ``start + info["sim_time"]``, starts each
 episode one control step after the previous one ended (so that stamps increase strictly across
-episodes), numbers the frames, and sends them with the episode's metadata record (and
-``/tf_static`` first) to a :class:`~bubblerob_env.ros.fastpath.serializer.MessageFanout`. The
+episodes), numbers the frames, and sends them with the episode's metadata record, its
+ground-truth ``/map`` (and ``/tf_static`` first) to a
+:class:`~bubblerob_env.ros.fastpath.serializer.MessageFanout`. The
 :class:`~bubblerob_env.ros.recorder.RosBagRecorder` and the
 :class:`~bubblerob_env.ros.live.wrapper.RosLivePublisher` both write through one, so that a live
 run and a recording of the same seeds and actions carry the same stamps.
@@ -21,6 +22,13 @@ import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
+from bubblerob_env.mapping import (
+    DEFAULT_RESOLUTION,
+    Grid,
+    check_resolution,
+    episode_grid,
+    has_arena,
+)
 from bubblerob_env.ros.bags.fanout import MessageFanout
 
 __all__ = [
@@ -111,11 +119,20 @@ class EpisodeStream:
         epoch_ns: Stamp of the first frame (nanoseconds since the Unix epoch): simulated time
             runs from it. ROS 1 tools drop messages stamped 0 ("invalid time"), so recorders
             and the live node pass a real time (:func:`start_time_ns`).
+        map_resolution: Metres per cell of each episode's ``/map`` (see
+            :func:`~bubblerob_env.mapping.check_resolution`).
     """
 
-    def __init__(self, fanout: MessageFanout, dt_ns: int, epoch_ns: int = 0) -> None:
+    def __init__(
+        self,
+        fanout: MessageFanout,
+        dt_ns: int,
+        epoch_ns: int = 0,
+        map_resolution: float = DEFAULT_RESOLUTION,
+    ) -> None:
         if not 0 <= epoch_ns < MAX_START_NS:  # 0: time from zero, for tests of the layers
             raise ValueError(f"start time {epoch_ns} ns is outside 0 .. {MAX_START_NS} ns")
+        self.map_resolution = check_resolution(map_resolution)
         self.fanout = fanout
         self.dt_ns = dt_ns
         self.epoch_ns = epoch_ns
@@ -165,22 +182,32 @@ class EpisodeStream:
             "bubblerob_version": _version(),
             **jsonable(facts),
         }
-        self.begin(obs, info, metadata)
+        grid = None
+        if self.fanout.topics.map is not None and has_arena(env):  # xml_file scenes: none
+            grid = episode_grid(env, self.map_resolution)
+        self.begin(obs, info, metadata, grid)
         self.episodes += 1
         return obs, info, metadata
 
     def begin(
-        self, obs: Mapping[str, NDArray[Any]], info: Mapping[str, Any], metadata: Mapping[str, Any]
+        self,
+        obs: Mapping[str, NDArray[Any]],
+        info: Mapping[str, Any],
+        metadata: Mapping[str, Any],
+        grid: Grid | None = None,
     ) -> int:
-        """Send a new episode's metadata record and first frame (after a reset); its start stamp.
+        """Send a new episode's records and first frame (after a reset); its start stamp.
 
-        ``/tf_static`` goes first when the stream (re)starts.
+        ``/tf_static`` goes first when the stream (re)starts, then the episode's metadata record,
+        ``/map`` of ``grid`` (if given) and the frame.
         """
         start = self.next_start()
         self._offset_ns = start - round(float(info["sim_time"]) * 1e9)
         if self.last_ns is None:
             self.fanout.write_records(lambda s: s.tf_static(start))
         self.fanout.write_records(lambda s: [s.episode(metadata, start)])
+        if grid is not None:
+            self.fanout.write_records(lambda s: s.map(grid, start))
         self.fanout.write_frame(obs, info, start, self.seq)
         self.seq += 1
         self.last_ns = start

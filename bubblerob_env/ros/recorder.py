@@ -16,6 +16,7 @@ from typing import Any
 import gymnasium as gym
 from numpy.typing import NDArray
 
+from bubblerob_env.mapping import DEFAULT_RESOLUTION
 from bubblerob_env.ros.bags import safety
 from bubblerob_env.ros.bags.fanout import MessageFanout
 from bubblerob_env.ros.bags.sinks import (
@@ -72,6 +73,7 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
         metadata: Mapping[str, Any] | None = None,
         per_episode: bool = False,
         start_time: float | str | None = None,
+        map_resolution: float = DEFAULT_RESOLUTION,
     ) -> None:
         """Wrap ``env`` and create the bag.
 
@@ -90,6 +92,8 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
             start_time: Stamp of the first frame, Unix seconds or an ISO 8601 date (see
                 :func:`~bubblerob_env.ros.episodes.start_time_ns`); default: now. Simulated
                 time runs from it; with ``per_episode`` every bag starts at it.
+            map_resolution: Metres per cell of each episode's ``/map`` (the ground-truth
+                occupancy grid, written once per episode at its start stamp), 0.005 to 1.
         """
         super().__init__(env)
         if format not in FORMATS:
@@ -115,7 +119,7 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
         self.completed_episodes = 0
         """Episodes recorded to their end (terminated or truncated), in every bag so far."""
         self.start_time_ns = start_time_ns(start_time)
-        self._stream = EpisodeStream(self._fanout, self._dt_ns, self.start_time_ns)
+        self._stream = EpisodeStream(self._fanout, self._dt_ns, self.start_time_ns, map_resolution)
         self._sink: BagSink | None = None
         self._closed = False
         self._bag_paths: list[Path] = []

@@ -12,9 +12,10 @@ import time
 
 import rospy
 from geometry_msgs.msg import Twist
-from nav_msgs.msg import Odometry
+from nav_msgs.msg import OccupancyGrid, Odometry
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Bool, Float32, Int32, String
+from tf2_msgs.msg import TFMessage
 
 
 class Counter:
@@ -93,6 +94,35 @@ def odom_dict(msg):
         "vx": t.linear.x,
         "wz": t.angular.z,
         "stamp": msg.header.stamp.to_nsec(),
+    }
+
+
+def map_dict(msg):
+    i, o = msg.info, msg.info.origin
+    return {
+        "stamp": msg.header.stamp.to_nsec(),
+        "frame_id": msg.header.frame_id,
+        "resolution": i.resolution,
+        "width": i.width,
+        "height": i.height,
+        "origin": [o.position.x, o.position.y, o.orientation.w],
+        "data": list(msg.data),
+    }
+
+
+def cmd_map(args):
+    """A late subscriber: the latched /map and /tf_static, then further maps for ``--seconds``."""
+    maps = Counter(ns(args, "map"), OccupancyGrid, keep=True)
+    static = Counter("/tf_static", TFMessage)
+    first = maps.wait(1, timeout=10)
+    tf_static = static.wait(1, timeout=10)
+    time.sleep(args.seconds)
+    return {
+        "first": map_dict(first),
+        "stamps": [m.header.stamp.to_nsec() for m in maps.all],
+        "distinct": len({bytes(bytearray(m.data)) for m in maps.all}),
+        "tf_static": [[t.header.frame_id, t.child_frame_id] for t in tf_static.transforms],
+        "latching": (getattr(first, "_connection_header", None) or {}).get("latching"),
     }
 
 
@@ -263,6 +293,8 @@ def main():
     parser.add_argument("--ns", default="")
     sub = parser.add_subparsers(dest="cmd", required=True)
     sub.add_parser("odom")
+    p = sub.add_parser("map")
+    p.add_argument("--seconds", type=float, default=0.0)
     p = sub.add_parser("count")
     p.add_argument("topics", nargs="+")
     p.add_argument("--seconds", type=float, default=1.0)

@@ -15,7 +15,7 @@ import time
 
 import rclpy
 from geometry_msgs.msg import Twist
-from nav_msgs.msg import Odometry
+from nav_msgs.msg import OccupancyGrid, Odometry
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -171,6 +171,33 @@ def cmd_echo(node, args):
     time.sleep(1.0)
     out["reliable_scan"] = reliable.count
     return out
+
+
+def cmd_map(node, args):
+    """A late transient-local subscriber: the latched /map and /tf_static, then ``--seconds``."""
+    maps = Counter(node, ns(args, "map"), OccupancyGrid, keep=True, qos=LATCHED)
+    static = Counter(node, "/tf_static", TFMessage, keep=True, qos=LATCHED)
+    first = maps.wait(1, timeout=20)
+    static.wait(1, timeout=20)
+    time.sleep(args.seconds)
+    i, o = first.info, first.info.origin
+    return {
+        "first": {
+            "stamp": stamp_ns(first.header.stamp),
+            "frame_id": first.header.frame_id,
+            "resolution": i.resolution,
+            "width": i.width,
+            "height": i.height,
+            "origin": [o.position.x, o.position.y, o.orientation.w],
+            "data": list(first.data),
+        },
+        "stamps": [stamp_ns(m.header.stamp) for m in maps.all],
+        "distinct": len({bytes(bytearray(m.data)) for m in maps.all}),
+        "tf_static": sorted(
+            [t.header.frame_id, t.child_frame_id] for msg in static.all for t in msg.transforms
+        ),
+        "qos": qos_of(node, ns(args, "map")),
+    }
 
 
 def cmd_odom(node, args):
@@ -345,6 +372,8 @@ def main():
     p = sub.add_parser("echo")
     p.add_argument("--camera", action="store_true")
     sub.add_parser("odom")
+    p = sub.add_parser("map")
+    p.add_argument("--seconds", type=float, default=0.0)
     p = sub.add_parser("count")
     p.add_argument("topics", nargs="+")
     p.add_argument("--seconds", type=float, default=1.0)

@@ -139,7 +139,7 @@ def test_humble_bags_decode_by_humbles_rules(record, fmt):
     assert {t.name: t.count for t in summary.topics} == {
         n: t["message_count"] for n, t in topics.items()
     }
-    latched = {"/tf_static", "/bubblerob/episode", "/camera/camera_info"}
+    latched = {"/tf_static", "/bubblerob/episode", "/map", "/camera/camera_info"}
     for name, topic in topics.items():
         (profile,) = decode_qos(topic["offered_qos_profiles"])
         assert (profile["history"], profile["reliability"]) == (1, 1), name  # keep last, reliable

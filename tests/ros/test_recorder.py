@@ -97,8 +97,11 @@ def test_tf_tree_is_complete_and_follows_rep_105(record, fmt):
         chain = [frame]
         while chain[-1] in parents:
             chain.append(parents[chain[-1]])
-        assert chain[-1] == "odom", chain
+        assert chain[-2:] == ["odom", "map"], chain
     assert parents["base_link"] == "odom"
+    assert parents["odom"] == "map"  # REP 105: map is the parent of odom (identity here)
+    map_odom = next(t for t in static.transforms if t.child_frame_id == "odom")
+    assert map_odom.transform.rotation.w == 1.0 and map_odom.transform.translation.x == 0.0
     _, odom = messages["/odom"][0]
     assert (odom.header.frame_id, odom.child_frame_id) == ("odom", "base_link")
     laser = next(t for t in static.transforms if t.child_frame_id == "laser_link")

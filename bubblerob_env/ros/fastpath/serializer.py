@@ -12,7 +12,7 @@ every recorded message goes through the same packer.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -20,10 +20,14 @@ from numpy.typing import NDArray
 from bubblerob_env.ros.fastpath.encode import Item, items_size, message_items
 from bubblerob_env.ros.fastpath.framing import FrameLayout, Framing, Record
 from bubblerob_env.ros.fastpath.packer import Packer
-from bubblerob_env.ros.messages.convert import RosConverter
+from bubblerob_env.ros.messages.convert import MAP_SLOTS, RosConverter
 from bubblerob_env.ros.messages.distros import serialize
 from bubblerob_env.ros.messages.topics import LATCHED_TOPICS, MSGTYPES, Topics
+from bubblerob_env.ros.messages.values import Slot, split_stamp
 from bubblerob_env.specs import EnvSpecs
+
+if TYPE_CHECKING:
+    from bubblerob_env.mapping import Grid
 
 __all__ = ["FramePacker", "FrameSerializer"]
 
@@ -103,6 +107,7 @@ class FrameSerializer:
         }
         self._raw = Framing("raw", tuple((name, i) for i, name in enumerate(self.names.values())))
         self._packers: dict[tuple[Framing, bool], FramePacker] = {}
+        self._map_packers: dict[tuple[Any, ...], Packer] = {}
 
     def packer(self, framing: Framing | None, stepped: bool) -> FramePacker:
         """The packer of frames after a ``step`` (or a ``reset``) for ``framing`` (cached).
@@ -138,6 +143,30 @@ class FrameSerializer:
         message = self.converter.tf_static(stamp_ns)
         data = serialize(self.distro.name, message, MSGTYPES["tf_static"])
         return [(self.names["tf_static"], stamp_ns, data)]
+
+    def map(self, grid: Grid, stamp_ns: int) -> list[Record]:
+        """The ``/map`` record of ``grid`` (none if that topic is left out).
+
+        Packed by a :class:`~bubblerob_env.ros.fastpath.packer.Packer` compiled from the
+        message's template, like every frame (one per grid shape, origin and resolution).
+        """
+        if "map" not in self.names:
+            return []
+        shape = (int(grid.data.shape[0]), int(grid.data.shape[1]))
+        key = (shape, grid.origin, grid.resolution)
+        packer = self._map_packers.get(key)
+        if packer is None:
+            slots = {name: Slot(name) for name in MAP_SLOTS}
+            slots["cells"] = Slot("cells", shape[0] * shape[1])
+            template = self.converter.occupancy_grid(slots, shape, grid.origin, grid.resolution)
+            items = message_items(
+                self.converter.store, MSGTYPES["map"], template, self.distro.encoding
+            )
+            packer = self._map_packers[key] = Packer(items, MAP_SLOTS)
+        sec, nanosec = split_stamp(stamp_ns)
+        cells = np.ascontiguousarray(grid.data, dtype=np.int8).tobytes()
+        data = packer.pack_one((sec, nanosec, 0, cells), stamp_ns, stamp_ns)
+        return [(self.names["map"], stamp_ns, data)]
 
     def episode(self, metadata: Mapping[str, Any], stamp_ns: int) -> Record:
         """The episode metadata record (``std_msgs/String`` holding JSON)."""

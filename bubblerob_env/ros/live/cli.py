@@ -120,6 +120,12 @@ def add_node_subcommand(subparsers: Any) -> None:
         metavar="KEY=JSON",
         help="BubbleRob-v0 keyword argument, e.g. num_obstacles=[0,0]",
     )
+    node.add_argument(
+        "--map-resolution",
+        default="0.05",
+        metavar="M",
+        help="metres per cell of the latched /map, 0.005 to 1",
+    )
     node.add_argument("--steps", type=int, default=None, help="exit after this many steps")
     node.add_argument("--duration", type=float, default=None, help="exit after this many seconds")
     node.add_argument(
@@ -144,6 +150,7 @@ def _node(args: argparse.Namespace) -> int:
     import gymnasium as gym
 
     import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
+    from bubblerob_env.mapping import check_resolution
     from bubblerob_env.ros.episodes import start_time_ns
     from bubblerob_env.ros.live.backend import BackendError, load_backend
     from bubblerob_env.ros.live.node import NodeConfig, SimNode, shared_clock_ns
@@ -174,6 +181,7 @@ def _node(args: argparse.Namespace) -> int:
             seed=args.seed,
             start=args.start,
             start_time=args.start_time,
+            map_resolution=check_resolution(args.map_resolution),
         )
         if args.start_time is not None:
             start_time_ns(args.start_time)  # a bad date fails here, before ROS starts

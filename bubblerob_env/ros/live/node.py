@@ -22,6 +22,7 @@ from typing import Any
 
 import gymnasium as gym
 
+from bubblerob_env.mapping import DEFAULT_RESOLUTION, check_resolution
 from bubblerob_env.ros.live.backend import LiveBackend
 from bubblerob_env.ros.live.controls import (
     CONTROL_TYPES,
@@ -54,6 +55,7 @@ class NodeConfig:
         start: Initial state: ``"running"``, ``"paused"`` or ``"stopped"``.
         start_time: Stamp of the first frame and ``/clock`` (Unix seconds or an ISO 8601 date);
             ``None``: the wall clock when the node starts.
+        map_resolution: Metres per cell of the latched ``/map`` (0.005 to 1).
     """
 
     rate_factor: float = 1.0
@@ -62,8 +64,10 @@ class NodeConfig:
     seed: int | None = 0
     start: str = "running"
     start_time: float | str | None = None
+    map_resolution: float = DEFAULT_RESOLUTION
 
     def __post_init__(self) -> None:
+        check_resolution(self.map_resolution)
         if not (math.isfinite(self.rate_factor) and self.rate_factor >= 0):
             raise ValueError(
                 f"rate_factor must be >= 0 (0: as fast as possible), got {self.rate_factor}"
@@ -138,7 +142,11 @@ class SimNode:
         self.command_names = {k: names[k] for k in COMMAND_KEYS if k in names}
         live_topics = topics.replace(**dict.fromkeys(COMMAND_KEYS))
         self.publisher = RosLivePublisher(
-            env, backend, topics=live_topics, start_time=self.config.start_time
+            env,
+            backend,
+            topics=live_topics,
+            start_time=self.config.start_time,
+            map_resolution=self.config.map_resolution,
         )
         self.names = (controls or ControlTopics()).resolved(topics.namespace)
         resolved = live_topics.resolved()

@@ -15,6 +15,7 @@ import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
+from bubblerob_env.mapping import DEFAULT_RESOLUTION
 from bubblerob_env.ros.bags.fanout import MessageFanout
 from bubblerob_env.ros.bags.sinks import BagSink
 from bubblerob_env.ros.episodes import EpisodeStream, jsonable, start_time_ns
@@ -45,6 +46,7 @@ class RosLivePublisher(gym.Wrapper[Any, Any, Any, Any]):
         metadata: JSON-able facts published with every episode on the episode topic.
         start_time: Stamp of the first frame, Unix seconds or an ISO 8601 date (see
             :func:`~bubblerob_env.ros.episodes.start_time_ns`); default: now.
+        map_resolution: Metres per cell of ``/map`` (latched, published again at every reset).
     """
 
     def __init__(
@@ -56,6 +58,7 @@ class RosLivePublisher(gym.Wrapper[Any, Any, Any, Any]):
         sinks: Sequence[BagSink] = (),
         metadata: Mapping[str, Any] | None = None,
         start_time: float | str | None = None,
+        map_resolution: float = DEFAULT_RESOLUTION,
     ) -> None:
         super().__init__(env)
         self.topics = topics or Topics()
@@ -73,7 +76,7 @@ class RosLivePublisher(gym.Wrapper[Any, Any, Any, Any]):
         self.episode = 0
         self.start_time_ns = start_time_ns(start_time)
         """Stamp of the first frame (nanoseconds since the Unix epoch)."""
-        self._stream = EpisodeStream(self.fanout, self._dt_ns, self.start_time_ns)
+        self._stream = EpisodeStream(self.fanout, self._dt_ns, self.start_time_ns, map_resolution)
         self._closed = False
 
     @property

@@ -16,8 +16,9 @@ objects share one definition of every field:
    compiles.
 
 Frames follow REP 103/105: ``odom -> base_link`` on ``/tf`` and in ``nav_msgs/Odometry`` (twist in
-``base_link``), ``base_link -> <sensor>`` on ``/tf_static``, the camera image in
-``camera_optical_frame``.
+``base_link``), ``base_link -> <sensor>`` and the identity ``map -> odom`` on ``/tf_static`` (the
+simulator's odometry is ground truth: it never drifts from the map), the camera image in
+``camera_optical_frame``, the episode's occupancy grid (``/map``) in ``map``.
 """
 
 from __future__ import annotations
@@ -40,10 +41,14 @@ from bubblerob_env.ros.messages.values import (
 )
 from bubblerob_env.specs import EnvSpecs
 
-__all__ = ["FRAME_KEYS", "RosConverter"]
+__all__ = ["FRAME_KEYS", "MAP_SLOTS", "RosConverter"]
 
+MAP_FRAME = "map"
 ODOM_FRAME = "odom"
 BASE_FRAME = "base_link"
+MAP_SLOTS = ("sec", "nanosec", "seq", "cells")
+"""Values of a ``/map`` message (:meth:`RosConverter.occupancy_grid`): stamp, ROS 1 sequence
+number and the cells (``int8`` bytes, row-major)."""
 
 FRAME_KEYS = (
     "scan",
@@ -298,14 +303,44 @@ class RosConverter(FrameValues):
         return self._msg("truncated", data=v["truncated"])
 
     def tf_static(self, stamp_ns: int) -> Any:
-        """``/tf_static``: ``base_link`` to every sensor frame (and the camera's optical frame)."""
+        """``/tf_static``: ``map -> odom`` (identity), ``base_link`` to every sensor frame."""
         sec, nanosec = split_stamp(stamp_ns)
         v = {"sec": sec, "nanosec": nanosec, "seq": 0}
-        transforms = [
+        transforms = [self._transform(v, MAP_FRAME, ODOM_FRAME, (0.0, 0.0, 0.0), (0, 0, 0, 1.0))]
+        transforms += [
             self._transform(v, s.parent, s.child, s.translation, s.rotation_xyzw)
             for s in self.specs.static_transforms
         ]
         return self._msg("tf_static", transforms=transforms)
+
+    def occupancy_grid(
+        self,
+        v: Mapping[str, Any],
+        shape: tuple[int, int],
+        origin: tuple[float, float],
+        resolution: float,
+    ) -> Any:
+        """``/map`` of values :data:`MAP_SLOTS` (or their slots): ``shape`` (rows, columns) cells.
+
+        The grid's lower-left corner is at ``origin`` (x, y) in ``map``, axes aligned with it;
+        loaded at the stamp.
+        """
+        t = self._types
+        rows, cols = shape
+        pose = t["geometry_msgs/msg/Pose"](
+            position=t["geometry_msgs/msg/Point"](x=float(origin[0]), y=float(origin[1]), z=0.0),
+            orientation=self._quaternion(0.0, 0.0, 0.0, 1.0),
+        )
+        info = t["nav_msgs/msg/MapMetaData"](
+            map_load_time=self._time(v["sec"], v["nanosec"]),
+            resolution=float(resolution),
+            width=cols,
+            height=rows,
+            origin=pose,
+        )
+        return self._msg(
+            "map", header=self._header(v, MAP_FRAME), info=info, data=_array(v["cells"], np.int8)
+        )
 
     def episode(self, metadata: Mapping[str, Any]) -> Any:
         """``/bubblerob/episode``: the episode's metadata as a JSON ``std_msgs/String``."""

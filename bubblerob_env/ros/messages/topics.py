@@ -40,10 +40,11 @@ MSGTYPES: dict[str, str] = {
     "truncated": "std_msgs/msg/Bool",
     "action": "std_msgs/msg/Float64MultiArray",
     "episode": "std_msgs/msg/String",
+    "map": "nav_msgs/msg/OccupancyGrid",
 }
 """Message type of each topic key (ROS 2 style names, as ``rosbags`` spells them)."""
 
-LATCHED_TOPICS = ("tf_static", "episode")
+LATCHED_TOPICS = ("tf_static", "episode", "map")
 """Keys written latched (ROS 1) / transient-local (ROS 2): a late subscriber still gets them."""
 
 GLOBAL_TOPICS = ("tf", "tf_static", "clock")
@@ -65,7 +66,8 @@ class Topics:
 
     The defaults are REP-style names plus the tutorial's BubbleRob topics
     (``/sensorTrigger``, ``/leftMotorSpeed``, ``/rightMotorSpeed``, ``/simulationTime``).
-    Camera topics are written only when the env has its camera on.
+    Camera topics are written only when the env has its camera on. ``/map`` is the episode's
+    ground-truth ``nav_msgs/OccupancyGrid``, once per episode (latched).
     """
 
     scan: str | None = "/scan"
@@ -86,6 +88,7 @@ class Topics:
     truncated: str | None = "/truncated"
     action: str | None = "/bubblerob/action"
     episode: str | None = "/bubblerob/episode"
+    map: str | None = "/map"
     namespace: str = ""
 
     def __post_init__(self) -> None:
