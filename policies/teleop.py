@@ -5,12 +5,14 @@ stops, q quits. A status line shows the commanded and measured speed, the neares
 and the collisions so far. The env runs in twist mode at its own control rate (20 Hz by default),
 paced to wall-clock time. ``--record DIR`` wraps the env in the ROS bag recorder (the ``ros``
 extra, imported only then). At exit one line ``final pose: x=.. y=.. yaw=..`` is printed.
+``--ros 1|2`` drives a running ``bubblerob node`` instead (:mod:`policies.teleop_ros`).
 """
 
 from __future__ import annotations
 
 import argparse
 import curses
+import os
 import time
 from typing import Any
 
@@ -121,7 +123,47 @@ def run_teleop(
     return info
 
 
+def _run_ros(args: argparse.Namespace) -> int:
+    """``--ros 1|2``: drive a live node; one line and exit 2 if ROS cannot be reached."""
+    import sys
+
+    from bubblerob_env.extras import require_extra
+
+    require_extra("ros", f"bubblerob teleop --ros {args.ros}")
+    from bubblerob_env.ros.live.backend import BackendError
+    from policies.teleop_ros import RosLink, run_ros_teleop
+
+    if args.record is not None or args.start_pose is not None or args.num_obstacles is not None:
+        print(
+            "bubblerob teleop: --record, --start-pose and --num-obstacles are for the local "
+            "simulation; with --ros give them to `bubblerob node` (--env, rosbag record)",
+            file=sys.stderr,
+        )
+        return 2
+    env = gym.make("BubbleRob-v0", laser_num_rays=0)  # the robot's limits, as the node has them
+    base: Any = env.unwrapped
+    limits = (float(base.max_linear_speed), float(base.max_angular_speed))
+    env.close()
+    try:
+        link = RosLink(args.ros, args.namespace, *limits)
+    except BackendError as error:
+        print(f"bubblerob teleop: {error}", file=sys.stderr)
+        return 2
+    try:
+        curses.wrapper(run_ros_teleop, link, args.max_seconds)
+    finally:
+        link.close()
+    pose = link.pose
+    if pose is None:
+        print(f"final pose: unknown (nothing on the node's odom with namespace {args.namespace!r})")
+    else:
+        print(f"final pose: x={pose[0]:.4f} y={pose[1]:.4f} yaw={pose[2]:.4f} (odom)")
+    return 0
+
+
 def _run(args: argparse.Namespace) -> int:
+    if args.ros is not None:
+        return _run_ros(args)
     kwargs: dict[str, Any] = {"action_type": "twist"}
     if args.start_pose is not None:
         kwargs["start_pose"] = tuple(args.start_pose)
@@ -174,6 +216,19 @@ def add_subcommands(subparsers: Any) -> None:
     )
     parser.add_argument(
         "--record", metavar="DIR", default=None, help="record the drive as a bag (ros extra)"
+    )
+    parser.add_argument(
+        "--ros",
+        type=int,
+        choices=(1, 2),
+        default=None,
+        help="publish cmd_vel to a running `bubblerob node --ros N` instead of simulating "
+        "(2: run it with .venv-ros2's bubblerob)",
+    )
+    parser.add_argument(
+        "--namespace",
+        default=os.environ.get("ROS_NAMESPACE", ""),
+        help="with --ros: the node's namespace (default: $ROS_NAMESPACE)",
     )
     parser.add_argument(
         "--max-seconds",

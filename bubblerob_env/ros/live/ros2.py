@@ -159,12 +159,15 @@ class Ros2Backend(LiveBackend):
         return publish
 
     def subscribe(self, topic: str, msgtype: str, callback: RawCallback) -> None:
-        """See :meth:`LiveBackend.subscribe` (reliable, keep last :data:`RELIABLE_DEPTH`)."""
+        """See :meth:`LiveBackend.subscribe`; reliable, keep last :data:`RELIABLE_DEPTH`.
+
+        Sensor types (:data:`SENSOR_TYPES`) get sensor-data QoS, which matches their publishers.
+        """
         self._node.create_subscription(
             self._type(msgtype),
             topic,
             lambda raw: callback(bytes(raw), None, "?"),
-            self._qos["reliable"],
+            self._qos["sensor" if msgtype in SENSOR_TYPES else "reliable"],
             raw=True,
         )
 
