@@ -2,8 +2,10 @@
 
 The scans are placed with ``odom -> base_link`` from ``/tf`` and ``base_link -> laser_link`` from
 ``/tf_static`` and folded into a :class:`~bubblerob_env.mapping.LogOddsMapper`. The ground truth
-comes from the episode's metadata: the env is re-created from the recorded env id and kwargs and
-reset with the recorded seed, as replay does. ``odom`` is the world frame of the simulation.
+is the episode's ``/map`` in the bag (written at the episode's start) when it has the resolution
+asked for; otherwise it comes from the episode's metadata: the env is re-created from the recorded
+env id and kwargs and reset with the recorded seed, as replay does. ``map`` and ``odom`` coincide
+(the identity on ``/tf_static``): the simulation's world frame.
 
 The IoU printed is that of the occupied cells over the cells the scans observed (free or
 occupied): the insides of obstacles and walls are never seen by a laser, so they are left out.
@@ -13,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +29,7 @@ from bubblerob_env.mapping import (
     UNKNOWN,
     Grid,
     LogOddsMapper,
+    check_resolution,
     episode_grid,
     occupied_iou,
 )
@@ -36,9 +40,11 @@ __all__ = ["MapResult", "add_subcommands", "map_bag", "map_png"]
 class MapResult:
     """The mapped grid, the ground truth and the IoU of occupied cells over observed cells."""
 
-    def __init__(self, mapped: Grid, truth: Grid, scans: int) -> None:
+    def __init__(self, mapped: Grid, truth: Grid, scans: int, truth_source: str = "") -> None:
         """Compare ``mapped`` with ``truth`` on the cells the mapper observed."""
         self.mapped, self.truth, self.scans = mapped, truth, scans
+        self.truth_source = truth_source
+        """Where the ground truth came from: the bag's ``/map`` or the re-simulated episode."""
         observed = mapped.data != UNKNOWN
         seen_truth = np.where(observed, truth.data, 0).astype(np.int8)
         self.iou = occupied_iou(mapped, Grid(seen_truth, truth.origin, truth.resolution))
@@ -69,9 +75,15 @@ def map_bag(
         laser_offset = (0.0, 0.0, 0.0)
         poses: dict[int, tuple[float, float, float]] = {}
         scans: list[tuple[int, Any]] = []
-        wanted = [c for c in reader.connections if c.topic in ("/tf", "/tf_static", "/scan")]
+        recorded: Grid | None = None
+        topics = ("/tf", "/tf_static", "/scan", "/map")
+        wanted = [c for c in reader.connections if c.topic in topics]
         for connection, _, raw in reader.messages(connections=wanted):
             message = reader.deserialize(raw, connection.msgtype)
+            if connection.topic == "/map":
+                if _stamp(message.header) == start:
+                    recorded = _grid(message, resolution)
+                continue
             if connection.topic == "/scan":
                 stamp = _stamp(message.header)
                 if stamp >= start and (end is None or stamp < end):
@@ -84,12 +96,9 @@ def map_bag(
                     laser_offset = pose
                 elif transform.child_frame_id.endswith("base_link"):
                     poses[_stamp(transform.header)] = pose
-    env = gym.make(meta["env_id"], **{**(meta.get("env_kwargs") or {}), "render_mode": None})
-    try:
-        env.reset(seed=meta.get("seed"), options=meta.get("options"))
-        truth = episode_grid(env, resolution)
-    finally:
-        env.close()
+    truth, source = (
+        (recorded, "the bag's /map") if recorded is not None else (_simulated(meta, resolution), "")
+    )
     mapper = LogOddsMapper(truth)
     used = 0
     for stamp, scan in scans:
@@ -107,7 +116,27 @@ def map_bag(
         angles = scan.angle_min + np.arange(len(ranges)) * scan.angle_increment
         mapper.add_scan(laser, angles, ranges, float(scan.range_max))
         used += 1
-    return MapResult(mapper.grid(), truth, used)
+    return MapResult(mapper.grid(), truth, used, source or "the re-simulated episode")
+
+
+def _grid(message: Any, resolution: float) -> Grid | None:
+    """A ``nav_msgs/OccupancyGrid`` as a :class:`Grid`, if it has ``resolution`` m cells."""
+    info = message.info
+    if not math.isclose(float(info.resolution), resolution, rel_tol=1e-6):  # a float32
+        return None
+    data = np.asarray(message.data, dtype=np.int8).reshape(int(info.height), int(info.width))
+    origin = (float(info.origin.position.x), float(info.origin.position.y))
+    return Grid(data.copy(), origin, resolution)
+
+
+def _simulated(meta: dict[str, Any], resolution: float) -> Grid:
+    """The ground truth of the episode ``meta`` describes, from its env re-created and reset."""
+    env = gym.make(meta["env_id"], **{**(meta.get("env_kwargs") or {}), "render_mode": None})
+    try:
+        env.reset(seed=meta.get("seed"), options=meta.get("options"))
+        return episode_grid(env, resolution)
+    finally:
+        env.close()
 
 
 def _image(grid: Grid) -> NDArray[np.uint8]:
@@ -132,8 +161,14 @@ def map_png(result: MapResult, out: str | Path, scale: int = 4) -> Path:
 
 
 def _run(args: argparse.Namespace) -> int:
-    result = map_bag(args.bag, args.episode, args.resolution)
+    try:
+        resolution = check_resolution(args.resolution)
+    except ValueError as error:
+        print(f"bubblerob map: {error}", file=sys.stderr)
+        return 2
+    result = map_bag(args.bag, args.episode, resolution)
     out = map_png(result, args.out)
+    print(f"ground truth: {result.truth_source}")
     print(f"scans: {result.scans}")
     print(f"IoU of occupied cells (observed cells): {result.iou:.3f}")
     print(f"IoU of occupied cells (all cells): {result.iou_all:.3f}")
@@ -152,6 +187,6 @@ def add_subcommands(subparsers: Any) -> None:
     )
     parser.add_argument("bag", help="the bag (ROS 1 .bag file or ROS 2 directory)")
     parser.add_argument("--episode", type=int, default=0, help="index of the episode to map")
-    parser.add_argument("--resolution", type=float, default=DEFAULT_RESOLUTION, help="m/cell")
+    parser.add_argument("--resolution", default=DEFAULT_RESOLUTION, help="m/cell, 0.005 to 1")
     parser.add_argument("--out", default="map.png", help="PNG to write")
     parser.set_defaults(handler=_run)

@@ -87,8 +87,43 @@ def test_map_of_a_recorded_laser_episode(tmp_path, capsys):
     png = tmp_path / "map.png"
     assert main(["map", str(bags / "bubblerob_laser_seed0"), "--out", str(png)]) == 0
     out = capsys.readouterr().out
+    assert "ground truth: the bag's /map" in out  # the recorder wrote the episode's /map
     iou = float(out.split("IoU of occupied cells (observed cells): ")[1].split()[0])
     print(out)
     assert iou >= 0.9, out
     assert int(out.split("scans: ")[1].split()[0]) > 500, out
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_map_of_a_bag_without_map_re_simulates_the_episode(tmp_path):
+    pytest.importorskip("rosbags")
+    from bubblerob_env.ros import RosBagRecorder
+    from bubblerob_env.ros.messages.topics import Topics
+    from policies.bag_map import map_bag
+
+    for name, topics in (("with", Topics()), ("without", Topics(map=None))):
+        env = gym.make("BubbleRob-v0", max_episode_steps=20)
+        with RosBagRecorder(env, tmp_path / name, topics=topics) as recorder:
+            recorder.reset(seed=3)
+            for _ in range(20):
+                recorder.step(np.array([0.0, 0.5], dtype=np.float32))  # turn on the spot
+    with_map, without = map_bag(tmp_path / "with"), map_bag(tmp_path / "without")
+    assert with_map.truth_source == "the bag's /map"
+    assert without.truth_source == "the re-simulated episode"
+    assert np.array_equal(with_map.truth.data, without.truth.data)
+    assert with_map.truth.origin == without.truth.origin
+    assert with_map.iou == without.iou
+
+
+@pytest.mark.parametrize("value", ["0", "abc"])
+def test_map_with_a_bad_resolution_is_one_line(tmp_path, value):
+    import subprocess
+    import sys
+
+    result = subprocess.run(
+        [sys.executable, "-m", "bubblerob_env.cli", "map", str(tmp_path), "--resolution", value],
+        capture_output=True, text=True, timeout=120, check=False,
+    )  # fmt: skip
+    assert result.returncode == 2 and "Traceback" not in result.stderr, result.stderr
+    (line,) = result.stderr.strip().splitlines()
+    assert value in line and "0.005" in line, line
