@@ -80,6 +80,8 @@ def test_readme_live_section_runs(tmp_path):
     assert proc.returncode == 0, output
     # rostopic echo printed the scan's angle_increment: 360 rays over 360 degrees.
     assert re.search(r"^0\.01745\d*\s*$", output, flags=re.MULTILINE), output
+    # and the latched /map's width: the 4.2 m of the arena and its walls in 0.05 m cells.
+    assert re.search(r"^84\s*$", output, flags=re.MULTILINE), output
     bag = tmp_path / "live.bag"
     with AnyReader([bag]) as reader:
         counts = {c.topic: c.msgcount for c in reader.connections}

@@ -271,3 +271,42 @@ def test_bad_map_resolution_is_one_line(tmp_path, command, value):
     assert len(lines) == 1, result.stderr
     assert value in lines[0] and "0.005" in lines[0] and "1" in lines[0], lines[0]
     assert not list(tmp_path.iterdir())  # no bag left behind
+
+
+@pytest.mark.parametrize("distro", ["noetic", "humble", "jazzy"])
+def test_map_packer_bytes_equal_rosbags_serialisation(distro):
+    from bubblerob_env.mapping import episode_grid
+    from bubblerob_env.ros.fastpath.serializer import FrameSerializer
+    from bubblerob_env.ros.messages.distros import serialize
+    from bubblerob_env.ros.messages.topics import Topics
+    from bubblerob_env.specs import EnvSpecs
+
+    env = gym.make("BubbleRob-v0", laser_num_rays=8)
+    env.reset(seed=2)
+    serializer = FrameSerializer(EnvSpecs.from_env(env), distro, Topics(namespace="r3"))
+    for resolution in (0.05, 0.07):
+        grid = episode_grid(env, resolution)
+        stamp = 1_700_000_123_456_789_012
+        ((topic, log_ns, data),) = serializer.map(grid, stamp)
+        values = {"sec": stamp // 10**9, "nanosec": stamp % 10**9, "seq": 0}
+        message = serializer.converter.occupancy_grid(
+            {**values, "cells": grid.data.tobytes()}, grid.data.shape, grid.origin, resolution
+        )
+        assert message.header.frame_id == "r3/map"
+        assert (topic, log_ns) == ("/r3/map", stamp)
+        assert data == serialize(distro, message, "nav_msgs/msg/OccupancyGrid")
+    env.close()
+
+
+def test_record_cli_takes_a_map_resolution(tmp_path):
+    result = subprocess.run(
+        [sys.executable, "-m", "bubblerob_env.cli", "record", "--policy", "reactive",
+         "--max-steps", "3", "--format", "ros1", "--out", str(tmp_path), "--no-progress",
+         "--map-resolution", "0.1"],
+        capture_output=True, text=True, timeout=120, check=False,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    report = read_with_rosbags(tmp_path / "bubblerob_reactive_seed0.bag")
+    ((message,),) = [report["maps"]]
+    assert (message["width"], message["height"]) == (42, 42)
+    assert message["resolution"] == pytest.approx(0.1)
