@@ -261,7 +261,12 @@ def train(
             deterministic=True,
             verbose=0,
         ),
-        CheckpointCallback(save_freq=max(1, 100_000 // count), save_path=str(out / "checkpoints")),
+        # With their VecNormalize statistics: a checkpoint without them cannot be evaluated.
+        CheckpointCallback(
+            save_freq=max(1, 100_000 // count),
+            save_path=str(out / "checkpoints"),
+            save_vecnormalize=True,
+        ),
     ]
     start = time.perf_counter()
     model.learn(int(config["n_timesteps"]), callback=callbacks, progress_bar=progress_bar)
