@@ -151,6 +151,8 @@ def _run_ros(args: argparse.Namespace) -> int:
         return 2
     try:
         curses.wrapper(run_ros_teleop, link, args.max_seconds)
+    except KeyboardInterrupt:  # Ctrl-C: as q (the robot is stopped below)
+        pass
     finally:
         link.close()
     pose = link.pose
