@@ -24,11 +24,12 @@ from stable_baselines3.common.vec_env.base_vec_env import (
     VecEnvIndices,
     VecEnvObs,
     VecEnvStepReturn,
+    VecEnvWrapper,
 )
 
 from bubblerob_env.vector import BubbleRobVectorEnv
 
-__all__ = ["BubbleRobSB3VecEnv"]
+__all__ = ["BubbleRobSB3VecEnv", "VecObservationWrapper"]
 
 
 class BubbleRobSB3VecEnv(VecEnv):
@@ -146,5 +147,65 @@ class BubbleRobSB3VecEnv(VecEnv):
     def env_is_wrapped(
         self, wrapper_class: type[gym.Wrapper[Any, Any, Any, Any]], indices: VecEnvIndices = None
     ) -> list[bool]:
-        """No robot's env is wrapped."""
-        return [False for _ in self._targets(indices)]
+        """Only as by ``Monitor``: the adapter reports ``info["episode"]`` as Monitor does.
+
+        So SB3's ``evaluate_policy`` takes episode returns and lengths from it, as from a
+        ``make_vec_env`` env, instead of warning that nothing reports them.
+        """
+        from stable_baselines3.common.monitor import Monitor
+
+        return [wrapper_class is Monitor for _ in self._targets(indices)]
+
+
+class VecObservationWrapper(VecEnvWrapper):
+    """Gymnasium observation wrappers applied to a ``VecEnv``'s whole batch at once.
+
+    For wrappers whose ``observation()`` also takes a batch (``LaserPooling`` does: its min-pool
+    works on the last axis), so that ``--vec-env batched`` trains on what ``make_vec_env(...,
+    wrapper_class=...)`` gives per env. ``from_env_wrapper`` finds the wrappers and the wrapped
+    observation space on one probe env; ``terminal_observation`` is wrapped as well.
+    """
+
+    def __init__(
+        self,
+        venv: VecEnv,
+        wrappers: Sequence[gym.ObservationWrapper[Any, Any, Any]],
+        observation_space: gym.spaces.Space[Any],
+    ) -> None:
+        super().__init__(venv, observation_space=observation_space)
+        self.wrappers = list(wrappers)  # innermost first, the order the per-env chain applies
+
+    @classmethod
+    def from_env_wrapper(
+        cls, venv: VecEnv, wrap: Any, probe: gym.Env[Any, Any]
+    ) -> VecObservationWrapper:
+        """``venv`` wrapped in what ``wrap(probe)`` adds; only observation wrappers allowed."""
+        wrapped = wrap(probe)
+        chain: list[gym.ObservationWrapper[Any, Any, Any]] = []
+        env = wrapped
+        while env is not probe:
+            if not isinstance(env, gym.ObservationWrapper):
+                raise ValueError(
+                    f"--vec-env batched applies observation wrappers only, not {type(env).__name__}"
+                )
+            chain.append(env)
+            env = env.env
+        return cls(venv, chain[::-1], wrapped.observation_space)
+
+    def _observation(self, observation: Any) -> VecEnvObs:
+        for wrapper in self.wrappers:
+            observation = wrapper.observation(observation)
+        wrapped: VecEnvObs = observation
+        return wrapped
+
+    def reset(self) -> VecEnvObs:
+        """Reset every env; the batch of first observations, wrapped."""
+        return self._observation(self.venv.reset())
+
+    def step_wait(self) -> VecEnvStepReturn:
+        """Step every env; observations (and terminal observations) wrapped."""
+        obs, rewards, dones, infos = self.venv.step_wait()
+        for info in infos:
+            if "terminal_observation" in info:
+                info["terminal_observation"] = self._observation(info["terminal_observation"])
+        return self._observation(obs), rewards, dones, infos

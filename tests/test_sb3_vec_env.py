@@ -56,6 +56,12 @@ def test_adapter_reports_episodes_as_monitor():
     assert dones.all() and all(info["episode"]["l"] == 5 for info in infos)
     assert all(info["is_success"] and info["TimeLimit.truncated"] for info in infos)
     assert envs.get_attr("arena_size") == [4.0, 4.0]
+    # So SB3's evaluate_policy takes the returns from info["episode"], as with make_vec_env's.
+    from gymnasium.wrappers import TimeLimit
+    from stable_baselines3.common.monitor import Monitor
+
+    assert envs.env_is_wrapped(Monitor) == [True, True]
+    assert envs.env_is_wrapped(TimeLimit) == [False, False]
     envs.close()
 
 
@@ -86,3 +92,45 @@ def test_train_with_the_native_batch(tmp_path):
 
     with pytest.raises(ValueError, match="BubbleRob-v0 only"):
         _batched_envs("HalfCheetah-v5", 2, 0, {})
+
+
+def test_batched_observation_wrappers_match_make_vec_env():
+    # LaserPooling on the whole batch against SB3's make_vec_env wrapping each env: the same
+    # pooled observations, terminal observations included, bit for bit.
+    from bubblerob_env.sb3 import VecObservationWrapper
+    from bubblerob_env.wrappers import LaserPooling
+    from train.train import _batched_envs, wrapper_class
+
+    n, limit = 3, 20
+    kwargs = {"max_episode_steps": limit}
+    wrap = wrapper_class([{"bubblerob_env.wrappers.LaserPooling": {"pool": 10}}])
+    ours = _batched_envs("BubbleRob-v0", n, 5, kwargs, wrap)
+    assert isinstance(ours, VecObservationWrapper)
+    theirs = make_vec_env(
+        "BubbleRob-v0", n_envs=n, seed=5, env_kwargs=kwargs, wrapper_class=LaserPooling
+    )
+    assert ours.observation_space == theirs.observation_space
+    assert ours.observation_space["laser"].shape == (36,)
+    assert _same(ours.reset(), theirs.reset())
+    actions = np.random.default_rng(1).uniform(-1, 1, size=(50, n, 2)).astype(np.float32)
+    terminal_seen = 0
+    for action in actions:
+        obs, rewards, dones, infos = ours.step(action)
+        obs_t, rewards_t, dones_t, infos_t = theirs.step(action)
+        assert _same(obs, obs_t) and _same(rewards, rewards_t) and _same(dones, dones_t)
+        for info, info_t in zip(infos, infos_t, strict=True):
+            if "terminal_observation" in info_t:
+                terminal_seen += 1
+                assert info["terminal_observation"]["laser"].shape == (36,)
+                assert _same(info["terminal_observation"], info_t["terminal_observation"])
+    assert terminal_seen >= n * 2
+    ours.close()
+    theirs.close()
+
+
+def test_batched_refuses_wrappers_that_are_not_observation_wrappers():
+    from train.train import _batched_envs, wrapper_class
+
+    wrap = wrapper_class("bubblerob_env.wrappers.EpisodeSuccess")
+    with pytest.raises(ValueError, match="observation wrappers only, not EpisodeSuccess"):
+        _batched_envs("BubbleRob-v0", 2, 0, {}, wrap)

@@ -47,7 +47,16 @@ HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
 NORMALIZATION_SUFFIX = "_vecnormalize.pkl"
 """``<model stem><suffix>`` beside a model holds its VecNormalize statistics (``load_policy``)."""
 EVAL_SEED_OFFSET = 1_000_000  # evaluation episodes use seeds training never sees
-_NOT_ALGO_KWARGS = ("normalize", "n_timesteps", "n_envs", "env_kwargs", "policy", "env_wrapper")
+_NOT_ALGO_KWARGS = (
+    "normalize",
+    "n_timesteps",
+    "n_envs",
+    "env_kwargs",
+    "policy",
+    "env_wrapper",
+    "frame_stack",
+    "callback",
+)
 PROJECT_SETTINGS = {"vec_env": "--vec-env", "torch_threads": "--torch-threads"}
 """Settings of this project's trainer that rl_zoo3 does not know: command-line options, not YAML."""
 VEC_ENVS = ("dummy", "subproc", "batched")
@@ -100,6 +109,19 @@ def wrapper_class(spec: Any) -> Any:
         return env
 
     return wrap
+
+
+def _configured_callbacks(spec: Any) -> list[Any]:
+    """rl-zoo's ``callback`` key (the ``env_wrapper`` forms): the callbacks it names."""
+    import importlib
+
+    from bubblerob_env.wrappers import parse_env_wrapper
+
+    callbacks = []
+    for name, kwargs in parse_env_wrapper(spec):
+        module, _, cls_name = name.rpartition(".")
+        callbacks.append(getattr(importlib.import_module(module), cls_name)(**kwargs))
+    return callbacks
 
 
 def _schedules(config: dict[str, Any]) -> dict[str, Any]:
@@ -188,7 +210,12 @@ def train(
     from stable_baselines3 import PPO, SAC
     from stable_baselines3.common.callbacks import CheckpointCallback, EvalCallback
     from stable_baselines3.common.env_util import make_vec_env
-    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
+    from stable_baselines3.common.vec_env import (
+        DummyVecEnv,
+        SubprocVecEnv,
+        VecFrameStack,
+        VecNormalize,
+    )
 
     if vec_env not in VEC_ENVS:
         raise ValueError(f"vec_env must be one of {list(VEC_ENVS)}, got {vec_env!r}")
@@ -215,9 +242,10 @@ def train(
     vec_cls = SubprocVecEnv if count > 1 and vec_env == "subproc" else DummyVecEnv
     torch.set_num_threads(int(torch_threads))
     if vec_env == "batched":
-        if wrap is not None:
-            raise ValueError("--vec-env batched cannot apply env_wrapper; use dummy or subproc")
-        envs = _batched_envs(env_id, count, seed, env_kwargs)
+        envs = _batched_envs(env_id, count, seed, env_kwargs, wrap)
+        # The same wrapper chain as training's: VecNormalize's statistics are synced by walking
+        # both chains in step.
+        eval_env = _batched_envs(env_id, 1, seed + EVAL_SEED_OFFSET, env_kwargs, wrap)
     else:
         envs = make_vec_env(
             env_id,
@@ -227,17 +255,21 @@ def train(
             vec_env_cls=vec_cls,
             wrapper_class=wrap,
         )
-    eval_env = make_vec_env(
-        env_id,
-        n_envs=1,
-        seed=seed + EVAL_SEED_OFFSET,
-        env_kwargs=env_kwargs,
-        wrapper_class=wrap,
-    )
+        eval_env = make_vec_env(
+            env_id,
+            n_envs=1,
+            seed=seed + EVAL_SEED_OFFSET,
+            env_kwargs=env_kwargs,
+            wrapper_class=wrap,
+        )
     if config.get("normalize", False):
         # rl-zoo's "normalize: true": running mean/std of observations (and returns for training).
         envs = VecNormalize(envs, gamma=float(config.get("gamma", 0.99)))
         eval_env = VecNormalize(eval_env, training=False, norm_reward=False)
+    if config.get("frame_stack"):
+        # rl-zoo's "frame_stack: N", on top of the normalisation as rl_zoo3 stacks.
+        envs = VecFrameStack(envs, int(config["frame_stack"]))
+        eval_env = VecFrameStack(eval_env, int(config["frame_stack"]))
     algo_cls = {"ppo": PPO, "sac": SAC}[algo]
     algo_kwargs = _schedules(
         {k: v for k, v in config.items() if k not in (*_NOT_ALGO_KWARGS, "seed")}
@@ -251,7 +283,7 @@ def train(
         device="cpu",
         **algo_kwargs,
     )
-    callbacks = [
+    callbacks: list[Any] = [
         EvalCallback(
             eval_env,
             n_eval_episodes=eval_episodes,
@@ -268,6 +300,7 @@ def train(
             save_vecnormalize=True,
         ),
     ]
+    callbacks += _configured_callbacks(config.get("callback"))
     start = time.perf_counter()
     model.learn(int(config["n_timesteps"]), callback=callbacks, progress_bar=progress_bar)
     final = out / "model.zip"
@@ -283,15 +316,31 @@ def train(
     return final
 
 
-def _batched_envs(env_id: str, count: int, seed: int, env_kwargs: dict[str, Any]) -> Any:
-    """``--vec-env batched``: the native batch (threads), as ``make_vec_env`` would seed it."""
-    from bubblerob_env.sb3 import BubbleRobSB3VecEnv
+def _batched_envs(
+    env_id: str, count: int, seed: int, env_kwargs: dict[str, Any], wrap: Any = None
+) -> Any:
+    """``--vec-env batched``: the native batch (threads), as ``make_vec_env`` would seed it.
+
+    An ``env_wrapper`` of observation wrappers is applied to the whole batch (``LaserPooling``).
+    """
+    import gymnasium as gym
+
+    from bubblerob_env.sb3 import BubbleRobSB3VecEnv, VecObservationWrapper
 
     if env_id != "BubbleRob-v0":
         raise ValueError(f"--vec-env batched steps BubbleRob-v0 only, not {env_id!r}")
     envs = BubbleRobSB3VecEnv(count, **env_kwargs)
     envs.seed(seed)
-    return envs
+    if wrap is None:
+        return envs
+    probe = gym.make(env_id, **env_kwargs)
+    try:
+        return VecObservationWrapper.from_env_wrapper(envs, wrap, probe)
+    except ValueError:
+        envs.close()
+        raise
+    finally:
+        probe.close()
 
 
 def _default_command(algo: str, env_id: str, out: Path) -> str:
