@@ -295,6 +295,12 @@ def _load_sb3(path: Path, env: gym.Env[Any, Any] | None = None, name: str = "") 
             "(or export it with python -m policies.export_onnx and load the .onnx)"
         ) from None
 
+    config = _recorded_config(path) or {}
+    if config.get("frame_stack"):
+        raise ValueError(
+            f"{path} was trained on {config['frame_stack']} stacked frames (frame_stack); "
+            "load_policy runs policies of single observations only"
+        )
     model: Any = (SAC if sb3_algorithm(path) == "SAC" else PPO).load(path, device="cpu")
     pooling = recorded_pooling(path)
     if env is not None:

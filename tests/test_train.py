@@ -207,3 +207,62 @@ def test_rl_zoo3_trains_from_the_yaml_as_it_is(tmp_path):
     result = subprocess.run(command, capture_output=True, text=True, timeout=600, check=False)
     assert result.returncode == 0, result.stderr[-3000:]
     assert list(tmp_path.glob("ppo/BubbleRob-v0_*/BubbleRob-v0.zip"))
+
+
+def test_obstacle_curriculum_grows_the_arenas_obstacles():
+    # rl-zoo's ``callback`` key names train.callbacks.ObstacleCurriculum: the layouts the training
+    # envs draw (counted from each env's own layout) start empty and end at the env's own range.
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.callbacks import BaseCallback
+    from stable_baselines3.common.env_util import make_vec_env
+
+    from train.train import _configured_callbacks
+
+    class CountObstacles(BaseCallback):
+        counts: list[list[int]] = []
+
+        def _on_rollout_start(self) -> None:
+            self.counts.append(
+                [len(env.unwrapped.layout.obstacles) for env in self.training_env.envs]
+            )
+
+        def _on_step(self) -> bool:
+            return True
+
+    envs = make_vec_env("BubbleRob-v0", n_envs=4, seed=0, env_kwargs={"max_episode_steps": 8})
+    (curriculum,) = _configured_callbacks(
+        [{"train.callbacks.ObstacleCurriculum": {"start": [0, 0], "ramp_fraction": 0.5}}]
+    )
+    model = PPO("MultiInputPolicy", envs, n_steps=16, batch_size=64, n_epochs=1, seed=0)
+    probe = CountObstacles()
+    model.learn(16 * 4 * 10, callback=[curriculum, probe])
+    # Rollouts of 16 steps reset every env twice: the second rollout shows the first's range.
+    assert max(probe.counts[1]) == 0
+    assert all(4 <= count <= 10 for count in probe.counts[-1]), probe.counts
+    assert envs.get_attr("num_obstacles") == [(4, 10)] * 4
+    assert curriculum.range_at(0.25) == (2, 5)
+
+
+def test_curriculum_and_frame_stack_train_and_load_refuses_stacked_models(tmp_path):
+    from policies import load_policy
+    from train.train import train
+
+    overrides = {
+        "n_steps": 64,
+        "batch_size": 64,
+        "frame_stack": 2,
+        "callback": [{"train.callbacks.ObstacleCurriculum": {"start": [1, 2]}}],
+    }
+    final = train(
+        "ppo",
+        "BubbleRob-v0",
+        tmp_path,
+        timesteps=512,
+        n_envs=2,
+        eval_freq=256,
+        eval_episodes=1,
+        progress_bar=False,
+        overrides=overrides,
+    )
+    with pytest.raises(ValueError, match="trained on 2 stacked frames"):
+        load_policy(str(final))
