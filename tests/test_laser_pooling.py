@@ -146,17 +146,19 @@ def test_wrapper_class_applies_the_list_in_order():
     assert env.observation_space["laser"].shape == (12,)
 
 
-def test_batched_vec_env_refuses_an_env_wrapper(tmp_path):
+def test_batched_vec_env_refuses_a_wrapper_that_is_not_an_observation_wrapper(tmp_path):
+    # LaserPooling is applied to the whole batch (tests/test_sb3_vec_env.py); a wrapper that
+    # changes more than observations cannot be, and is named.
     pytest.importorskip("stable_baselines3")
     from train.train import train
 
-    with pytest.raises(ValueError, match="batched cannot apply env_wrapper"):
+    with pytest.raises(ValueError, match="observation wrappers only, not EpisodeSuccess"):
         train(
             "ppo",
             "BubbleRob-v0",
             tmp_path,
             timesteps=64,
-            overrides={"env_wrapper": [POOLING]},
+            overrides={"env_wrapper": [POOLING, "bubblerob_env.wrappers.EpisodeSuccess"]},
             vec_env="batched",
         )
 

@@ -11,7 +11,7 @@ import pytest
 import yaml
 
 from policies import load_policy
-from policies.loading import NormalizedPolicy
+from policies.loading import NormalizedPolicy, PooledPolicy
 from train import load_hyperparams
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -68,10 +68,14 @@ def test_training_script_runs_and_saves_a_reproducible_run(tmp_path, algo):
         assert config["normalize"] is True
         assert (out / "model_vecnormalize.pkl").is_file()
         policy = load_policy(out / "model.zip")
-        assert isinstance(policy, NormalizedPolicy)
+        # ppo.yml's env_wrapper min-pools the scan: the policy pools, then normalises.
+        assert isinstance(policy, PooledPolicy) and policy.pooling == [("laser", 10)]
+        assert isinstance(policy.policy, NormalizedPolicy)
         obs, _ = gym.make("BubbleRob-v0").reset(seed=0)
-        normalized = policy.normalizer.normalize_obs(obs)
-        assert abs(float(normalized["laser"].mean())) < abs(float(obs["laser"].mean()))
+        pooled = policy.pool(obs)
+        assert pooled["laser"].shape == (36,)
+        normalized = policy.policy.normalizer.normalize_obs(pooled)
+        assert abs(float(normalized["laser"].mean())) < abs(float(pooled["laser"].mean()))
         assert policy.predict(obs)[0].shape == (2,)
 
 
