@@ -48,6 +48,7 @@ class TeleopState:
         self.linear = 0.0
         self.angular = 0.0
         self.quit = False
+        self.last_info: dict[str, Any] | None = None  # the latest step's, for Ctrl-C
 
     def press(self, key: int) -> None:
         """Apply one key (unknown keys are ignored); upper-case letters act as lower-case."""
@@ -88,8 +89,24 @@ def run_teleop(
     screen.nodelay(True)
     screen.keypad(True)
     state = TeleopState()
-    obs, info = env.reset(seed=seed)
+    _, info = env.reset(seed=seed)
     dt = float(env.unwrapped.dt)  # type: ignore[attr-defined]
+    try:
+        info = _drive(screen, env, state, info, dt, max_seconds)
+    except KeyboardInterrupt:  # Ctrl-C quits as q does: no traceback, the last pose printed
+        info = state.last_info or info
+    return info
+
+
+def _drive(
+    screen: Any,
+    env: gym.Env[Any, Any],
+    state: TeleopState,
+    info: dict[str, Any],
+    dt: float,
+    max_seconds: float | None,
+) -> dict[str, Any]:
+    """The teleop loop: keys, a step, the status lines, at real time; the last info."""
     collisions = 0
     started = next_tick = time.monotonic()
     episode = 0
@@ -99,6 +116,7 @@ def run_teleop(
         if state.quit:
             break
         obs, _, terminated, truncated, info = env.step(state.action)
+        state.last_info = info
         collisions += bool(info["collision"])
         nearest = float(np.min(obs["laser"])) if "laser" in obs else float("nan")
         screen.erase()
@@ -112,6 +130,7 @@ def run_teleop(
             episode += 1
             state.linear = state.angular = 0.0
             obs, info = env.reset()
+            state.last_info = info
         next_tick += dt
         delay = next_tick - time.monotonic()
         if delay > 0:
@@ -182,7 +201,7 @@ def _run(args: argparse.Namespace) -> int:
     try:
         info = curses.wrapper(run_teleop, env, args.seed, args.max_seconds)
     finally:
-        env.close()
+        env.close()  # with --record: the bag is closed, every finished episode readable
     print(f"final pose: x={info['x']:.4f} y={info['y']:.4f} yaw={info['yaw']:.4f}")
     if args.record is not None:
         print(f"recorded: {args.record}")

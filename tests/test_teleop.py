@@ -93,3 +93,43 @@ def test_forward_keys_drive_along_the_start_heading(tmp_path: Path):
     assert last is not None
     assert last.pose.pose.position.x == pytest.approx(x, abs=1e-3)
     assert last.pose.pose.position.y == pytest.approx(y, abs=1e-3)
+
+
+def test_ctrl_c_quits_as_q_without_a_traceback_and_keeps_the_bag(tmp_path: Path):
+    # A user's Ctrl-C is not an error: the final pose is printed, the recorded drive is readable.
+    session = f"bubblerob-teleop-c-{id(tmp_path)}"
+    bag = tmp_path / "drive"
+    log = tmp_path / "out.txt"
+    command = (
+        f"{sys.executable} -m bubblerob_env.cli teleop --start-pose 0 0 1.5708 "
+        f"--num-obstacles 0 0 --seed 0 --max-seconds 60 --record {bag} 2> {log}; "
+        f"echo exit=$?; sleep 30"
+    )
+    _tmux("new-session", "-d", "-s", session, "-x", "200", "-y", "20", command)
+    try:
+        screen = ""
+        for _ in range(300):
+            screen = _tmux("capture-pane", "-p", "-t", session)
+            if "nearest" in screen:
+                break
+            time.sleep(0.1)
+        _tmux("send-keys", "-t", session, "w", "w")
+        time.sleep(1.5)
+        _tmux("send-keys", "-t", session, "C-c")
+        text = ""
+        for _ in range(200):
+            text = _tmux("capture-pane", "-p", "-t", session)
+            if "exit=" in text:
+                break
+            time.sleep(0.1)
+    finally:
+        subprocess.run(["tmux", "kill-session", "-t", session], check=False, timeout=30)
+    assert "exit=0" in text, text
+    match = re.search(r"final pose: x=(\S+) y=(\S+) yaw=(\S+)", text)
+    assert match and float(match.group(2)) > 0.05, text
+    assert "Traceback" not in log.read_text() + text
+    info = subprocess.run(
+        [sys.executable, "-m", "bubblerob_env.cli", "info", str(bag)],
+        capture_output=True, text=True, timeout=120, check=False,
+    )  # fmt: skip
+    assert info.returncode == 0 and "/odom" in info.stdout, info.stdout + info.stderr
