@@ -2,9 +2,10 @@
 
 Usage: ``python bench/train_speed.py [--max-steps N] [--quick]``
 
-Part 1 trains PPO with ``train/hyperparams/ppo.yml`` (seed 0) and evaluates the deterministic
-policy on 20 held-out episodes every ``--eval-every`` steps; it reports the env steps and wall
-time at which the success rate (time limit reached without a collision) first reaches 90%.
+Part 1 trains PPO with ``train/hyperparams/ppo.yml`` (its ``env_kwargs`` reward and its
+``env_wrapper`` too, seed 0) and evaluates the deterministic policy on 20 held-out episodes every
+``--eval-every`` steps; it reports the env steps and wall time at which the success rate (time
+limit reached without a collision) first reaches 90%.
 Part 2 measures SB3 PPO throughput (env steps/s including updates) with 1 and 2 envs, in-process
 (DummyVecEnv) and in subprocesses (SubprocVecEnv), and 8 envs in-process and as the native batch
 (``bubblerob_env.sb3``, ``--vec-env batched`` for part 1: it gives the same episodes, so the same
@@ -31,8 +32,7 @@ from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
 
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
-from bubblerob_env.sb3 import BubbleRobSB3VecEnv
-from train.train import _schedules, load_hyperparams
+from train.train import _batched_envs, _schedules, load_hyperparams, wrapper_class
 
 ALGO_KEYS = (
     "n_steps",
@@ -50,8 +50,9 @@ ALGO_KEYS = (
 class StopAtSuccess(BaseCallback):
     """Evaluates every ``every`` steps; stops training once the success rate reaches ``target``."""
 
-    def __init__(self, every: int, episodes: int, target: float) -> None:
+    def __init__(self, every: int, episodes: int, target: float, wrap: Any = None) -> None:
         super().__init__()
+        self.wrap = wrap  # the config's env_wrapper (LaserPooling): the policy sees its output
         self.every, self.episodes, self.target = every, episodes, target
         self.start = time.perf_counter()
         self.next_eval = every
@@ -59,7 +60,9 @@ class StopAtSuccess(BaseCallback):
         self.reached: tuple[int, float] | None = None
 
     def _success_rate(self) -> float:
-        env = gym.make("BubbleRob-v0")
+        env: Any = gym.make("BubbleRob-v0")
+        if self.wrap is not None:
+            env = self.wrap(env)
         normalizer = self.model.get_vec_normalize_env()
         successes = 0
         for episode in range(self.episodes):
@@ -88,13 +91,20 @@ class StopAtSuccess(BaseCallback):
         return True
 
 
-def _training_envs(n_envs: int, vec_env: str) -> Any:
+def _training_envs(
+    n_envs: int, vec_env: str, env_kwargs: dict[str, Any] | None = None, wrap: Any = None
+) -> Any:
     """``n_envs`` BubbleRobs seeded 0, 1, ...: SB3's DummyVecEnv, or the native batch."""
     if vec_env == "batched":
-        envs = BubbleRobSB3VecEnv(n_envs)
-        envs.seed(0)
-        return envs
-    return make_vec_env("BubbleRob-v0", n_envs=n_envs, seed=0, vec_env_cls=DummyVecEnv)
+        return _batched_envs("BubbleRob-v0", n_envs, 0, dict(env_kwargs or {}), wrap)
+    return make_vec_env(
+        "BubbleRob-v0",
+        n_envs=n_envs,
+        seed=0,
+        vec_env_cls=DummyVecEnv,
+        env_kwargs=env_kwargs,
+        wrapper_class=wrap,
+    )
 
 
 def time_to_success(
@@ -102,12 +112,14 @@ def time_to_success(
 ) -> StopAtSuccess:
     config = load_hyperparams("ppo", "BubbleRob-v0")
     torch.set_num_threads(int(config.get("torch_threads", 1)))
-    envs: Any = _training_envs(int(config["n_envs"]), vec_env)
+    # The shipped training setup: the config's reward (env_kwargs) and observation wrapper.
+    wrap = wrapper_class(config.get("env_wrapper"))
+    envs: Any = _training_envs(int(config["n_envs"]), vec_env, config.get("env_kwargs"), wrap)
     if config.get("normalize"):
         envs = VecNormalize(envs, gamma=float(config["gamma"]))
     kwargs = _schedules({k: config[k] for k in ALGO_KEYS if k in config})
     model = PPO(config["policy"], envs, seed=0, device="cpu", verbose=0, **kwargs)
-    callback = StopAtSuccess(every, episodes, 0.9)
+    callback = StopAtSuccess(every, episodes, 0.9, wrap)
     model.learn(min(max_steps, int(config["n_timesteps"])), callback=callback)
     return callback
 
