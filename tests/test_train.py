@@ -268,5 +268,7 @@ def test_curriculum_and_frame_stack_train_and_load_refuses_stacked_models(tmp_pa
         progress_bar=False,
         overrides=overrides,
     )
+    # The final model's VecNormalize statistics are saved from under the VecFrameStack.
+    assert (tmp_path / "model_vecnormalize.pkl").is_file()
     with pytest.raises(ValueError, match="trained on 2 stacked frames"):
         load_policy(str(final))

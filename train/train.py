@@ -305,8 +305,9 @@ def train(
     model.learn(int(config["n_timesteps"]), callback=callbacks, progress_bar=progress_bar)
     final = out / "model.zip"
     model.save(final)
-    if isinstance(envs, VecNormalize):
-        envs.save(str(out / f"model{NORMALIZATION_SUFFIX}"))
+    normalizer = model.get_vec_normalize_env()  # under a VecFrameStack too
+    if normalizer is not None:
+        normalizer.save(str(out / f"model{NORMALIZATION_SUFFIX}"))
     (out / "train_time.json").write_text(
         json.dumps({"wall_time_s": time.perf_counter() - start, "timesteps": model.num_timesteps})
         + "\n"
