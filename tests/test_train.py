@@ -272,3 +272,26 @@ def test_curriculum_and_frame_stack_train_and_load_refuses_stacked_models(tmp_pa
     assert (tmp_path / "model_vecnormalize.pkl").is_file()
     with pytest.raises(ValueError, match="trained on 2 stacked frames"):
         load_policy(str(final))
+
+
+def test_camera_only_training_evaluates_like_it_trains(tmp_path):
+    # SB3 transposes the camera's HWC images for the policy; the evaluation env gets the same
+    # wrapper, so EvalCallback does not warn and VecNormalize syncs along the same chain.
+    import warnings
+
+    from train.train import train
+
+    overrides = {
+        "n_steps": 32,
+        "batch_size": 64,
+        "n_epochs": 1,
+        "env_wrapper": None,
+        "normalize": False,  # VecNormalize would make the image a float box (no transpose)
+        "env_kwargs": {"camera": True, "laser_num_rays": 0, "camera_width": 64,
+                       "camera_height": 64, "max_episode_steps": 16},
+    }  # fmt: skip
+    with warnings.catch_warnings():
+        warnings.filterwarnings("error", message="Training and eval env are not of the same type")
+        final = train("ppo", "BubbleRob-v0", tmp_path, timesteps=128, n_envs=2, eval_freq=64,
+                      eval_episodes=1, progress_bar=False, overrides=overrides)  # fmt: skip
+    assert final.is_file() and (tmp_path / "evaluations.npz").is_file()

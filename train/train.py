@@ -215,6 +215,8 @@ def train(
         SubprocVecEnv,
         VecFrameStack,
         VecNormalize,
+        VecTransposeImage,
+        is_vecenv_wrapped,
     )
 
     if vec_env not in VEC_ENVS:
@@ -283,6 +285,9 @@ def train(
         device="cpu",
         **algo_kwargs,
     )
+    if is_vecenv_wrapped(model.get_env(), VecTransposeImage):
+        # SB3 transposes image observations (the camera) for the policy: the eval env alike.
+        eval_env = VecTransposeImage(eval_env)
     callbacks: list[Any] = [
         EvalCallback(
             eval_env,
