@@ -170,6 +170,7 @@ def test_launch_dir_holds_a_ros_package_launch_and_rviz():
     assert displays["rviz/Odometry"]["Topic"] == "odom"
     assert displays["rviz/Image"]["Image Topic"] == "camera/image_raw"
     assert "rviz/TF" in displays
+    assert displays["rviz/Map"]["Topic"] == "map"  # the latched ground-truth /map
 
 
 @requires_ros
@@ -189,6 +190,9 @@ def test_roslaunch_parses_the_launch_file():
     assert "scripts/bubblerob_node --namespace=r2 --seed 0 --sync" in command
     command = roslaunch("--args", "/bubblerob", launch, "rate:=max")
     assert "--rate-factor max --camera" in command
+    assert "--map-resolution 0.05 " in command  # the default, as `bubblerob node`
+    command = roslaunch("--args", "/bubblerob", launch, "map_resolution:=0.1")
+    assert "--map-resolution 0.1 " in command
 
 
 LAUNCH_NODES = """
