@@ -127,3 +127,28 @@ def test_map_with_a_bad_resolution_is_one_line(tmp_path, value):
     assert result.returncode == 2 and "Traceback" not in result.stderr, result.stderr
     (line,) = result.stderr.strip().splitlines()
     assert value in line and "0.005" in line, line
+
+
+def test_a_scene_without_the_arenas_walls_says_it_has_no_map(tmp_path):
+    # xml_file scenes may lack the arena's walls: no ground truth, and the user is told once.
+    import warnings
+
+    from rosbags.highlevel import AnyReader
+
+    from bubblerob_env.arena import ASSETS_DIR
+    from bubblerob_env.ros import RosBagRecorder
+
+    scene = ASSETS_DIR / "scenes" / "wall_test.xml"
+    env = gym.make("BubbleRob-v0", xml_file=str(scene), num_obstacles=(0, 0),
+                   start_pose=(0.0, 0.0, 0.0), max_episode_steps=3)  # fmt: skip
+    bag = tmp_path / "bag"
+    recorder = RosBagRecorder(env, bag)
+    with pytest.warns(UserWarning, match=r"wall_test\.xml has no arena walls .*no /map"):
+        recorder.reset(seed=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # once per recording, not every episode
+        recorder.reset(seed=1)
+    recorder.close()
+    with AnyReader([bag]) as reader:
+        counts = {connection.topic: connection.msgcount for connection in reader.connections}
+    assert counts["/scan"] == 2 and counts.get("/map", 0) == 0, counts

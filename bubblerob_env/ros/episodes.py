@@ -13,15 +13,18 @@ run and a recording of the same seeds and actions carry the same stamps.
 from __future__ import annotations
 
 import time
+import warnings
 from collections.abc import Mapping
 from datetime import datetime, timezone
 from decimal import Decimal, InvalidOperation
+from pathlib import Path
 from typing import Any, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
+from bubblerob_env import names
 from bubblerob_env.mapping import (
     DEFAULT_RESOLUTION,
     Grid,
@@ -139,6 +142,7 @@ class EpisodeStream:
         self.seq = 0
         """Sequence number of the next frame (never restarts)."""
         self.episodes = 0
+        self._warned_no_map = False
         """Episodes begun by :meth:`reset` so far (the next one's number)."""
         self.last_ns: int | None = None
         """Stamp of the latest frame; ``None`` before the first (or after :meth:`restart`)."""
@@ -183,8 +187,18 @@ class EpisodeStream:
             **jsonable(facts),
         }
         grid = None
-        if self.fanout.topics.map is not None and has_arena(env):  # xml_file scenes: none
-            grid = episode_grid(env, self.map_resolution)
+        if self.fanout.topics.map is not None:
+            if has_arena(env):
+                grid = episode_grid(env, self.map_resolution)
+            elif not self._warned_no_map:  # an xml_file scene without the arena's walls
+                self._warned_no_map = True
+                scene = Path(getattr(env.unwrapped, "xml_file", "the scene")).name
+                warnings.warn(
+                    f"{scene} has no arena walls ({', '.join(names.ARENA_WALLS)}): "
+                    "no /map is published for it",
+                    UserWarning,
+                    stacklevel=2,
+                )
         self.begin(obs, info, metadata, grid)
         self.episodes += 1
         return obs, info, metadata
