@@ -86,12 +86,8 @@ def _reject_project_settings(config: dict[str, Any]) -> None:
             )
 
 
-def wrapper_class(spec: Any) -> Any:
-    """rl-zoo's ``env_wrapper`` as one callable ``env -> wrapped env`` (``None`` without one).
-
-    ``spec`` is a string ``"module.Class"``, a one-key mapping ``{"module.Class": {kwargs}}`` or
-    a list of those, applied first to last, as rl_zoo3 applies them.
-    """
+def _named_classes(spec: Any) -> list[tuple[Any, dict[str, Any]]]:
+    """rl-zoo's ``"module.Class"`` entries (``env_wrapper``, ``callback``): ``(class, kwargs)``."""
     import importlib
 
     from bubblerob_env.wrappers import parse_env_wrapper
@@ -100,6 +96,16 @@ def wrapper_class(spec: Any) -> Any:
     for name, kwargs in parse_env_wrapper(spec):
         module, _, cls_name = name.rpartition(".")
         classes.append((getattr(importlib.import_module(module), cls_name), kwargs))
+    return classes
+
+
+def wrapper_class(spec: Any) -> Any:
+    """rl-zoo's ``env_wrapper`` as one callable ``env -> wrapped env`` (``None`` without one).
+
+    ``spec`` is a string ``"module.Class"``, a one-key mapping ``{"module.Class": {kwargs}}`` or
+    a list of those, applied first to last, as rl_zoo3 applies them.
+    """
+    classes = _named_classes(spec)
     if not classes:
         return None
 
@@ -113,15 +119,7 @@ def wrapper_class(spec: Any) -> Any:
 
 def _configured_callbacks(spec: Any) -> list[Any]:
     """rl-zoo's ``callback`` key (the ``env_wrapper`` forms): the callbacks it names."""
-    import importlib
-
-    from bubblerob_env.wrappers import parse_env_wrapper
-
-    callbacks = []
-    for name, kwargs in parse_env_wrapper(spec):
-        module, _, cls_name = name.rpartition(".")
-        callbacks.append(getattr(importlib.import_module(module), cls_name)(**kwargs))
-    return callbacks
+    return [cls(**kwargs) for cls, kwargs in _named_classes(spec)]
 
 
 def _schedules(config: dict[str, Any]) -> dict[str, Any]:
