@@ -19,6 +19,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 from gymnasium.vector import AutoresetMode
+from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.vec_env.base_vec_env import (
     VecEnv,
     VecEnvIndices,
@@ -152,8 +153,6 @@ class BubbleRobSB3VecEnv(VecEnv):
         So SB3's ``evaluate_policy`` takes episode returns and lengths from it, as from a
         ``make_vec_env`` env, instead of warning that nothing reports them.
         """
-        from stable_baselines3.common.monitor import Monitor
-
         return [wrapper_class is Monitor for _ in self._targets(indices)]
 
 
