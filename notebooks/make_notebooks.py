@@ -43,7 +43,7 @@ QUICKSTART = [
     ),
     new_code_cell(
         "spec = env.unwrapped.laser_spec\n"
-        'fig = plt.figure(figsize=(4, 4))\n'
+        "fig = plt.figure(figsize=(4, 4))\n"
         'ax = fig.add_subplot(projection="polar")\n'
         'ax.plot(spec.angles(), obs["laser"], ".", markersize=2)\n'
         "ax.set_theta_zero_location('N')  # robot's +x points up\n"
