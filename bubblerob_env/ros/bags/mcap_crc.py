@@ -1,7 +1,7 @@
 """CRCs of a finished MCAP file: the data section's and the summary's, written in place.
 
 ``rosbags`` writes 0 for every CRC ("not computed"), so corruption goes unnoticed. Chunk CRCs
-(of the uncompressed records) are written with each chunk (:mod:`~bubblerob_env.ros.bags.writers`);
+(of the uncompressed records) are written with each chunk (:mod:`~bubblerob_env.ros.bags.ros2`);
 the data section CRC (``DataEnd``) and the summary CRC (``Footer``) cover the whole file, so they
 are computed when the file is finished: :func:`seal` reads it back once (CRC-32 runs at over a
 GB/s) and patches the two fields, as the MCAP spec defines them
