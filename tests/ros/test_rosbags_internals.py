@@ -10,8 +10,8 @@ from bubblerob_env.ros.bags.writers import RELIED_ON, rosbags_changes
 def test_rosbags_still_has_every_private_name_the_writers_use():
     changes = rosbags_changes()
     assert not changes, (
-        f"rosbags {version('rosbags')} changed private API that bubblerob_env/ros/bags/writers.py "
-        f"relies on: {changes}. Adapt writers.py (the only module that uses rosbags internals), "
+        f"rosbags {version('rosbags')} changed private API that bubblerob_env/ros/bags/ros1.py and "
+        f"ros2.py rely on (listed in writers.py): {changes}. Adapt those modules, "
         "check the byte-equality tests, then widen the rosbags pin in pyproject.toml."
     )
     assert sum(len(names) for names in RELIED_ON.values()) > 30
