@@ -113,15 +113,18 @@ def map_dict(msg):
 def cmd_map(args):
     """A late subscriber: the latched /map and /tf_static, then further maps for ``--seconds``."""
     maps = Counter(ns(args, "map"), OccupancyGrid, keep=True)
-    static = Counter("/tf_static", TFMessage)
+    # Every latched /tf_static: other robots of the graph (a module's earlier nodes) latch theirs.
+    static = Counter("/tf_static", TFMessage, keep=True)
     first = maps.wait(1, timeout=10)
-    tf_static = static.wait(1, timeout=10)
+    static.wait(1, timeout=10)
     time.sleep(args.seconds)
     return {
         "first": map_dict(first),
         "stamps": [m.header.stamp.to_nsec() for m in maps.all],
         "distinct": len({bytes(bytearray(m.data)) for m in maps.all}),
-        "tf_static": [[t.header.frame_id, t.child_frame_id] for t in tf_static.transforms],
+        "tf_static": [
+            [t.header.frame_id, t.child_frame_id] for msg in static.all for t in msg.transforms
+        ],
         "latching": (getattr(first, "_connection_header", None) or {}).get("latching"),
     }
 
