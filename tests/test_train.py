@@ -286,7 +286,7 @@ def test_camera_only_training_evaluates_like_it_trains(tmp_path):
         "batch_size": 64,
         "n_epochs": 1,
         "env_wrapper": None,
-        "normalize": False,  # VecNormalize would make the image a float box (no transpose)
+        "normalize": True,  # the vectors only: SB3 scales and transposes the image itself
         "env_kwargs": {"camera": True, "laser_num_rays": 0, "camera_width": 64,
                        "camera_height": 64, "max_episode_steps": 16},
     }  # fmt: skip
@@ -295,3 +295,8 @@ def test_camera_only_training_evaluates_like_it_trains(tmp_path):
         final = train("ppo", "BubbleRob-v0", tmp_path, timesteps=128, n_envs=2, eval_freq=64,
                       eval_episodes=1, progress_bar=False, overrides=overrides)  # fmt: skip
     assert final.is_file() and (tmp_path / "evaluations.npz").is_file()
+    import pickle
+
+    with (tmp_path / "model_vecnormalize.pkl").open("rb") as handle:
+        normalizer = pickle.load(handle)
+    assert sorted(normalizer.norm_obs_keys) == ["proximity", "velocity"]

@@ -264,8 +264,9 @@ def train(
         )
     if config.get("normalize", False):
         # rl-zoo's "normalize: true": running mean/std of observations (and returns for training).
-        envs = VecNormalize(envs, gamma=float(config.get("gamma", 0.99)))
-        eval_env = VecNormalize(eval_env, training=False, norm_reward=False)
+        keys = _non_image_keys(envs.observation_space)
+        envs = VecNormalize(envs, gamma=float(config.get("gamma", 0.99)), norm_obs_keys=keys)
+        eval_env = VecNormalize(eval_env, training=False, norm_reward=False, norm_obs_keys=keys)
     if config.get("frame_stack"):
         # rl-zoo's "frame_stack: N", on top of the normalisation as rl_zoo3 stacks.
         envs = VecFrameStack(envs, int(config["frame_stack"]))
@@ -318,6 +319,20 @@ def train(
     envs.close()
     eval_env.close()
     return final
+
+
+def _non_image_keys(space: Any) -> list[str] | None:
+    """The observation keys VecNormalize should normalise: all but images (the camera).
+
+    SB3 scales and transposes uint8 images itself; normalised, they would be a float box it
+    takes for a vector. ``None`` (all) for a space that is not a dict.
+    """
+    from gymnasium import spaces
+    from stable_baselines3.common.preprocessing import is_image_space
+
+    if not isinstance(space, spaces.Dict):
+        return None
+    return [key for key, sub in space.spaces.items() if not is_image_space(sub)]
 
 
 def _batched_envs(
