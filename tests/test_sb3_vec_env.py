@@ -22,6 +22,22 @@ def _same(a, b) -> bool:
     return np.asarray(a).tobytes() == np.asarray(b, dtype=np.asarray(a).dtype).tobytes()
 
 
+def _step_both(ours, theirs, action):
+    """One step of both VecEnvs: the same observations, rewards, dones and infos, Monitor's
+    ``episode`` compared by return and length (another clock); the dones and the
+    ``(info, info_t)`` pairs."""
+    obs, rewards, dones, infos = ours.step(action)
+    obs_t, rewards_t, dones_t, infos_t = theirs.step(action)
+    assert _same(obs, obs_t) and _same(rewards, rewards_t) and _same(dones, dones_t)
+    for info, info_t in zip(infos, infos_t, strict=True):
+        assert "episode" in info_t or "episode" not in info
+        if "episode" in info_t:
+            episode, episode_t = info.pop("episode"), info_t.pop("episode")
+            assert (episode["r"], episode["l"]) == (episode_t["r"], episode_t["l"])
+        assert _same(info, info_t)
+    return dones, list(zip(infos, infos_t, strict=True))
+
+
 @pytest.mark.parametrize("num_threads", [1, 2])
 def test_adapter_matches_make_vec_env(num_threads):
     n, limit = 4, 30
@@ -33,15 +49,7 @@ def test_adapter_matches_make_vec_env(num_threads):
     actions[..., 0] = np.abs(actions[..., 0])
     dones_seen = 0
     for action in actions:
-        obs, rewards, dones, infos = ours.step(action)
-        obs_t, rewards_t, dones_t, infos_t = theirs.step(action)
-        assert _same(obs, obs_t) and _same(rewards, rewards_t) and _same(dones, dones_t)
-        for info, info_t in zip(infos, infos_t, strict=True):
-            assert "episode" in info_t or "episode" not in info
-            if "episode" in info_t:  # Monitor's: the same return and length, another clock
-                episode, episode_t = info.pop("episode"), info_t.pop("episode")
-                assert (episode["r"], episode["l"]) == (episode_t["r"], episode_t["l"])
-            assert _same(info, info_t)
+        dones, _ = _step_both(ours, theirs, action)
         dones_seen += int(dones.sum())
     assert dones_seen >= n * 3
     ours.close()
@@ -115,14 +123,11 @@ def test_batched_observation_wrappers_match_make_vec_env():
     actions = np.random.default_rng(1).uniform(-1, 1, size=(50, n, 2)).astype(np.float32)
     terminal_seen = 0
     for action in actions:
-        obs, rewards, dones, infos = ours.step(action)
-        obs_t, rewards_t, dones_t, infos_t = theirs.step(action)
-        assert _same(obs, obs_t) and _same(rewards, rewards_t) and _same(dones, dones_t)
-        for info, info_t in zip(infos, infos_t, strict=True):
-            if "terminal_observation" in info_t:
+        _, pairs = _step_both(ours, theirs, action)  # terminal observations compared too
+        for info, _ in pairs:
+            if "terminal_observation" in info:
                 terminal_seen += 1
                 assert info["terminal_observation"]["laser"].shape == (36,)
-                assert _same(info["terminal_observation"], info_t["terminal_observation"])
     assert terminal_seen >= n * 2
     ours.close()
     theirs.close()

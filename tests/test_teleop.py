@@ -11,6 +11,7 @@ import time
 from pathlib import Path
 
 import pytest
+from teleop_terminal import screen_until, tmux
 
 from policies.teleop import TeleopState
 
@@ -32,48 +33,32 @@ def test_keys_change_the_twist():
     assert state.quit
 
 
-def _tmux(*args: str) -> str:
-    return subprocess.run(
-        ["tmux", *args], check=True, capture_output=True, text=True, timeout=30
-    ).stdout
+TELEOP = (
+    f"{sys.executable} -m bubblerob_env.cli teleop --start-pose 0 0 1.5708 "
+    "--num-obstacles 0 0 --seed 0 --max-seconds 60"
+)
+"""Start at the centre facing +y (yaw pi/2), no obstacles: forward must move +y, not x."""
 
 
 def test_forward_keys_drive_along_the_start_heading(tmp_path: Path):
     session = f"bubblerob-teleop-{id(tmp_path)}"
     bag = tmp_path / "drive"
-    # Start at the centre facing +y (yaw pi/2), no obstacles: forward must move +y, not x.
-    command = (
-        f"{sys.executable} -m bubblerob_env.cli teleop --start-pose 0 0 1.5708 "
-        f"--num-obstacles 0 0 --seed 0 --max-seconds 60 --record {bag}; sleep 30"
-    )
-    _tmux("new-session", "-d", "-s", session, "-x", "200", "-y", "20", command)
+    tmux("new-session", "-d", "-s", session, "-x", "200", "-y", "20",
+         f"{TELEOP} --record {bag}; sleep 30")  # fmt: skip
     try:
-        screen = ""
-        for _ in range(300):
-            screen = _tmux("capture-pane", "-p", "-t", session)
-            if "nearest" in screen:
-                break
-            time.sleep(0.1)
+        screen, _ = screen_until(session, "nearest", 30)
         assert "BubbleRob teleop" in screen and "collisions 0" in screen, repr(screen)
-        _tmux("send-keys", "-t", session, "w", "w", "w", "Up", "Up")  # forward 0.5
-        for _ in range(200):  # real time: about 2 s (slower on a loaded machine)
-            time.sleep(0.1)
-            screen = _tmux("capture-pane", "-p", "-t", session)
-            pose = re.search(r"pose x=(\S+) y=(\S+)", screen)
-            if pose and float(pose.group(2)) >= 0.35:
-                break
+        tmux("send-keys", "-t", session, "w", "w", "w", "Up", "Up")  # forward 0.5
+        # Real time: about 2 s (slower on a loaded machine).
+        screen, _ = screen_until(session, r"pose x=\S+ y=(\S+)", 20, at_least=0.35)
         assert "cmd lin +0.5 ang +0.0" in screen, screen
         speed = float(re.search(r"speed ([+-][\d.]+) m/s", screen).group(1))
         assert speed > 0.1, screen
-        _tmux("send-keys", "-t", session, "Space")
+        tmux("send-keys", "-t", session, "Space")
         time.sleep(1.0)
-        _tmux("send-keys", "-t", session, "q")
-        text = ""
-        for _ in range(200):  # curses gives the screen back, then the pose is printed
-            text = _tmux("capture-pane", "-p", "-t", session)
-            if "final pose" in text:
-                break
-            time.sleep(0.1)
+        tmux("send-keys", "-t", session, "q")
+        # curses gives the screen back, then the pose is printed
+        text, _ = screen_until(session, "final pose", 20)
     finally:
         subprocess.run(["tmux", "kill-session", "-t", session], check=False, timeout=30)
     match = re.search(r"final pose: x=(\S+) y=(\S+) yaw=(\S+)", text)
@@ -100,28 +85,14 @@ def test_ctrl_c_quits_as_q_without_a_traceback_and_keeps_the_bag(tmp_path: Path)
     session = f"bubblerob-teleop-c-{id(tmp_path)}"
     bag = tmp_path / "drive"
     log = tmp_path / "out.txt"
-    command = (
-        f"{sys.executable} -m bubblerob_env.cli teleop --start-pose 0 0 1.5708 "
-        f"--num-obstacles 0 0 --seed 0 --max-seconds 60 --record {bag} 2> {log}; "
-        f"echo exit=$?; sleep 30"
-    )
-    _tmux("new-session", "-d", "-s", session, "-x", "200", "-y", "20", command)
+    tmux("new-session", "-d", "-s", session, "-x", "200", "-y", "20",
+         f"{TELEOP} --record {bag} 2> {log}; echo exit=$?; sleep 30")  # fmt: skip
     try:
-        screen = ""
-        for _ in range(300):
-            screen = _tmux("capture-pane", "-p", "-t", session)
-            if "nearest" in screen:
-                break
-            time.sleep(0.1)
-        _tmux("send-keys", "-t", session, "w", "w")
+        screen_until(session, "nearest", 30)
+        tmux("send-keys", "-t", session, "w", "w")
         time.sleep(1.5)
-        _tmux("send-keys", "-t", session, "C-c")
-        text = ""
-        for _ in range(200):
-            text = _tmux("capture-pane", "-p", "-t", session)
-            if "exit=" in text:
-                break
-            time.sleep(0.1)
+        tmux("send-keys", "-t", session, "C-c")
+        text, _ = screen_until(session, "exit=", 20)
     finally:
         subprocess.run(["tmux", "kill-session", "-t", session], check=False, timeout=30)
     assert "exit=0" in text, text
