@@ -1,0 +1,153 @@
+# README's two commands: `make demo` sets up for the demo and runs it, `make test` sets up for the
+# tests and runs them. Each set-up step first checks whether it is done (dpkg for Debian packages,
+# a stamp in the venv holding the sha256 of the files the step was run for, an import for torch)
+# and says "skipped" when it is, so a second run installs nothing.
+SHELL := /bin/bash
+.SHELLFLAGS := -euo pipefail -c
+.ONESHELL:
+.NOTPARALLEL:
+.DEFAULT_GOAL := help
+
+PYTHON ?= python3
+VENV ?= .venv
+VENV_ROS2 ?= .venv-ros2
+PYTEST_ARGS ?=
+DEMO_ARGS ?=
+TORCH_CPU_INDEX ?= https://download.pytorch.org/whl/cpu
+# Where the CPU index is not reachable: the release that the project's machines hold as a CPU
+# wheel on local disk (pip's find-links). Elsewhere PyPI's torch is a CUDA build of several GB.
+TORCH_FALLBACK ?= 2.13.0
+# Not root: apt-get through sudo.
+SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
+
+DEMO_DEBS := libegl1 libegl-mesa0 libgl1-mesa-dri ffmpeg
+TEST_DEBS := xvfb xauth tmux python3-rosbag python3-rospy python3-rosmaster python3-rostopic python3-roslaunch python3-std-msgs python3-rosgraph-msgs python3-geometry-msgs python3-sensor-msgs python3-nav-msgs python3-tf2-msgs
+# What each step's stamp is the sha256 of: when one changes, the step runs again.
+PIP_INPUTS := pyproject.toml
+TF2_INPUTS := pyproject.toml bubblerob_env/ros/live/ros2_msgs.py bubblerob_env/ros/messages/msg/tf2_msgs/TFMessage.msg
+TORCH_REPORT := $(VENV)/.torch-install-report.json
+
+.PHONY: help demo test demo-setup test-setup debs-demo debs-test venv venv-demo venv-all torch \
+	venv-ros2 tf2-msgs
+
+help:
+	@echo "make demo        set up for the demo (Debian packages, $(VENV) with .[demo]), run it"
+	echo "                 (DEMO_ARGS=... are passed to bubblerob demo)"
+	echo "make test        set up for the tests (+ test packages, torch CPU, $(VENV) with .[all],"
+	echo "                 $(VENV_ROS2) with .[ros2] and tf2_msgs), run pytest (PYTEST_ARGS=...)"
+	echo "make demo-setup, make test-setup: the set-up alone"
+	echo "A second run skips what is installed, and says so."
+
+demo: demo-setup
+	@echo "run: bubblerob demo $(DEMO_ARGS)"
+	source $(VENV)/bin/activate
+	bubblerob demo $(DEMO_ARGS)
+
+test: test-setup
+	@echo "run: python -m pytest $(PYTEST_ARGS)"
+	source $(VENV)/bin/activate
+	python -m pytest $(PYTEST_ARGS)
+
+demo-setup: debs-demo venv venv-demo
+test-setup: debs-demo debs-test venv torch venv-all venv-ros2 tf2-msgs
+
+# $(call apt_install,WHAT,PACKAGES): apt-get installs those of PACKAGES that are not installed.
+define apt_install
+missing=""
+for package in $(2); do
+  status=$$(dpkg-query -W -f='$${Status}' "$$package" 2>/dev/null || true)
+  [ "$$status" = "install ok installed" ] || missing="$$missing $$package"
+done
+if [ -z "$$missing" ]; then
+  echo "setup: Debian packages for $(1) are installed: skipped"
+elif ! command -v apt-get >/dev/null; then
+  echo "setup: no apt-get here; install$$missing (Debian's names) by hand, then run make again" >&2
+  exit 1
+else
+  echo "setup: installing Debian packages for $(1):$$missing"
+  $(SUDO) apt-get update && $(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get install -y $$missing
+fi
+endef
+
+debs-demo:
+	@$(call apt_install,rendering and videos,$(DEMO_DEBS))
+
+debs-test:
+	@$(call apt_install,the tests,$(TEST_DEBS))
+
+venv:
+	@if [ -x $(VENV)/bin/python ]; then
+	  echo "setup: $(VENV) exists: skipped"
+	else
+	  $(PYTHON) -m venv $(VENV)
+	fi
+
+# .[all] includes .[demo]: either stamp will do.
+venv-demo: venv
+	@if sha256sum --check --status $(VENV)/.stamp-demo 2>/dev/null \
+	    || sha256sum --check --status $(VENV)/.stamp-all 2>/dev/null; then
+	  echo "setup: $(VENV) has .[demo] for this $(PIP_INPUTS): skipped"
+	else
+	  $(VENV)/bin/pip install -e ".[demo]"
+	  sha256sum $(PIP_INPUTS) > $(VENV)/.stamp-demo
+	fi
+
+venv-all: venv torch
+	@if sha256sum --check --status $(VENV)/.stamp-all 2>/dev/null; then
+	  echo "setup: $(VENV) has .[all] for this $(PIP_INPUTS): skipped"
+	else
+	  $(VENV)/bin/pip install -e ".[all]"
+	  sha256sum $(PIP_INPUTS) > $(VENV)/.stamp-all
+	fi
+
+# Prints which torch is in the venv, which build, and where pip took it from (the report that
+# `pip install --report` wrote, argv[1]); fails where torch does not import.
+define TORCH_SAYS
+import json, os, sys
+import torch
+build = f"CUDA {torch.version.cuda} build" if torch.version.cuda else "CPU-only build"
+origin = "no pip report: installed before make"
+if os.path.exists(sys.argv[1]):
+    with open(sys.argv[1]) as report:
+        for item in json.load(report)["install"]:
+            if item["metadata"]["name"] == "torch":
+                origin = "from " + item["download_info"]["url"]
+print(f"torch {torch.__version__} ({build}, {origin})")
+endef
+export TORCH_SAYS
+torch_says := $(VENV)/bin/python -c "$$TORCH_SAYS" $(TORCH_REPORT)
+
+torch: venv
+	@if said=$$($(torch_says) 2>/dev/null); then
+	  echo "setup: $$said is in $(VENV): skipped"
+	  exit 0
+	fi
+	echo "setup: installing a CPU-only torch from PyTorch's CPU index, $(TORCH_CPU_INDEX)"
+	if ! $(VENV)/bin/pip install torch --index-url $(TORCH_CPU_INDEX) \
+	    --timeout 20 --retries 1 --report $(TORCH_REPORT); then
+	  echo "setup: PyTorch's CPU index gave no torch (not reachable from here?); falling back to" \
+	    "pip install torch==$(TORCH_FALLBACK) from pip's configured indexes and find-links"
+	  $(VENV)/bin/pip install torch==$(TORCH_FALLBACK) --report $(TORCH_REPORT)
+	fi
+	echo "setup: installed $$($(torch_says))"
+
+venv-ros2:
+	@if [ -x $(VENV_ROS2)/bin/python ]; then
+	  echo "setup: $(VENV_ROS2) exists: skipped"
+	else
+	  $(PYTHON) -m venv $(VENV_ROS2)
+	fi
+	if sha256sum --check --status $(VENV_ROS2)/.stamp-ros2 2>/dev/null; then
+	  echo "setup: $(VENV_ROS2) has .[ros2] for this $(PIP_INPUTS): skipped"
+	else
+	  $(VENV_ROS2)/bin/pip install -e ".[ros2]"
+	  sha256sum $(PIP_INPUTS) > $(VENV_ROS2)/.stamp-ros2
+	fi
+
+tf2-msgs: venv-ros2
+	@if sha256sum --check --status $(VENV_ROS2)/.stamp-tf2-msgs 2>/dev/null; then
+	  echo "setup: $(VENV_ROS2) has tf2_msgs, built from these $(TF2_INPUTS): skipped"
+	else
+	  $(VENV_ROS2)/bin/python -m bubblerob_env.ros.live.ros2_msgs
+	  sha256sum $(TF2_INPUTS) > $(VENV_ROS2)/.stamp-tf2-msgs
+	fi
