@@ -49,7 +49,7 @@ test: test-setup
 	python -m pytest $(PYTEST_ARGS)
 
 demo-setup: debs-demo venv venv-demo
-test-setup: debs-demo debs-test venv torch venv-all venv-ros2 tf2-msgs
+test-setup: demo-setup debs-test torch venv-all venv-ros2 tf2-msgs
 
 # $(call apt_install,WHAT,PACKAGES): apt-get installs those of PACKAGES that are not installed.
 define apt_install
@@ -79,6 +79,7 @@ venv:
 	@if [ -x $(VENV)/bin/python ]; then
 	  echo "setup: $(VENV) exists: skipped"
 	else
+	  echo "setup: creating $(VENV)"
 	  $(PYTHON) -m venv $(VENV)
 	fi
 
@@ -88,6 +89,7 @@ venv-demo: venv
 	    || sha256sum --check --status $(VENV)/.stamp-all 2>/dev/null; then
 	  echo "setup: $(VENV) has .[demo] for this $(PIP_INPUTS): skipped"
 	else
+	  echo "setup: installing .[demo] into $(VENV)"
 	  $(VENV)/bin/pip install -e ".[demo]"
 	  sha256sum $(PIP_INPUTS) > $(VENV)/.stamp-demo
 	fi
@@ -96,6 +98,7 @@ venv-all: venv torch
 	@if sha256sum --check --status $(VENV)/.stamp-all 2>/dev/null; then
 	  echo "setup: $(VENV) has .[all] for this $(PIP_INPUTS): skipped"
 	else
+	  echo "setup: installing .[all] into $(VENV)"
 	  $(VENV)/bin/pip install -e ".[all]"
 	  sha256sum $(PIP_INPUTS) > $(VENV)/.stamp-all
 	fi
@@ -103,7 +106,7 @@ venv-all: venv torch
 # Prints which torch is in the venv, which build, and where pip took it from (the report that
 # `pip install --report` wrote, argv[1]); fails where torch does not import.
 define TORCH_SAYS
-import json, os, sys
+import json, os, sys, urllib.parse
 import torch
 build = f"CUDA {torch.version.cuda} build" if torch.version.cuda else "CPU-only build"
 origin = "no pip report: installed before make"
@@ -111,22 +114,25 @@ if os.path.exists(sys.argv[1]):
     with open(sys.argv[1]) as report:
         for item in json.load(report)["install"]:
             if item["metadata"]["name"] == "torch":
-                origin = "from " + item["download_info"]["url"]
+                origin = "from " + urllib.parse.unquote(item["download_info"]["url"])
 print(f"torch {torch.__version__} ({build}, {origin})")
 endef
 export TORCH_SAYS
 torch_says := $(VENV)/bin/python -c "$$TORCH_SAYS" $(TORCH_REPORT)
 
+# PyTorch's CPU index first; pip's configured indexes and find-links still count (here they hold
+# the CPU wheel, so pip may take it from there even when that index is not reachable). What it
+# installed, and from where, is printed from pip's report either way.
 torch: venv
 	@if said=$$($(torch_says) 2>/dev/null); then
 	  echo "setup: $$said is in $(VENV): skipped"
 	  exit 0
 	fi
-	echo "setup: installing a CPU-only torch from PyTorch's CPU index, $(TORCH_CPU_INDEX)"
+	echo "setup: installing torch into $(VENV), first from PyTorch's CPU index, $(TORCH_CPU_INDEX)"
 	if ! $(VENV)/bin/pip install torch --index-url $(TORCH_CPU_INDEX) \
 	    --timeout 20 --retries 1 --report $(TORCH_REPORT); then
-	  echo "setup: PyTorch's CPU index gave no torch (not reachable from here?); falling back to" \
-	    "pip install torch==$(TORCH_FALLBACK) from pip's configured indexes and find-links"
+	  echo "setup: no torch through PyTorch's CPU index (not reachable from here?); falling back" \
+	    "to pip install torch==$(TORCH_FALLBACK) from pip's configured indexes and find-links"
 	  $(VENV)/bin/pip install torch==$(TORCH_FALLBACK) --report $(TORCH_REPORT)
 	fi
 	echo "setup: installed $$($(torch_says))"
@@ -135,11 +141,13 @@ venv-ros2:
 	@if [ -x $(VENV_ROS2)/bin/python ]; then
 	  echo "setup: $(VENV_ROS2) exists: skipped"
 	else
+	  echo "setup: creating $(VENV_ROS2)"
 	  $(PYTHON) -m venv $(VENV_ROS2)
 	fi
 	if sha256sum --check --status $(VENV_ROS2)/.stamp-ros2 2>/dev/null; then
 	  echo "setup: $(VENV_ROS2) has .[ros2] for this $(PIP_INPUTS): skipped"
 	else
+	  echo "setup: installing .[ros2] into $(VENV_ROS2)"
 	  $(VENV_ROS2)/bin/pip install -e ".[ros2]"
 	  sha256sum $(PIP_INPUTS) > $(VENV_ROS2)/.stamp-ros2
 	fi
@@ -148,6 +156,7 @@ tf2-msgs: venv-ros2
 	@if sha256sum --check --status $(VENV_ROS2)/.stamp-tf2-msgs 2>/dev/null; then
 	  echo "setup: $(VENV_ROS2) has tf2_msgs, built from these $(TF2_INPUTS): skipped"
 	else
+	  echo "setup: building tf2_msgs into $(VENV_ROS2)"
 	  $(VENV_ROS2)/bin/python -m bubblerob_env.ros.live.ros2_msgs
 	  sha256sum $(TF2_INPUTS) > $(VENV_ROS2)/.stamp-tf2-msgs
 	fi

@@ -4,9 +4,12 @@ from __future__ import annotations
 
 import os
 import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
+
+import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text()
@@ -17,44 +20,155 @@ def _code_blocks(language: str) -> list[str]:
     return re.findall(rf"```{language}\n(.*?)```", README, flags=re.DOTALL)
 
 
-def _section_block(heading: str) -> str:
+def _section_blocks(heading: str) -> list[str]:
     section = README.split(f"## {heading}\n", 1)[1].split("\n## ", 1)[0]
-    return re.findall(r"```bash\n(.*?)```", section, flags=re.DOTALL)[0]
+    return re.findall(r"```bash\n(.*?)```", section, flags=re.DOTALL)
+
+
+def _section_block(heading: str) -> str:
+    return _section_blocks(heading)[0]
 
 
 def _commands(block: str) -> list[str]:
     return [line for line in block.splitlines() if line.strip() and not line.startswith("#")]
 
 
-def test_ci_runs_readmes_set_up_commands():
-    ci_lines = [line.strip() for line in CI_SCRIPT.splitlines()]
-    set_up = _commands(_section_block("Set up")) + _commands(_section_block("Run the tests"))[:-1]
-    assert len(set_up) >= 4
-    for command in set_up:
-        assert command in ci_lines, f"CI does not run README's {command!r}"
-    # in README's order
-    positions = [ci_lines.index(command) for command in set_up]
-    assert positions == sorted(positions)
+def _ci_commands() -> list[str]:
+    return [line.strip() for line in CI_SCRIPT.splitlines() if line and not line.startswith("#")]
 
 
-def test_readmes_first_install_is_the_torch_free_demo_extra():
-    pip_commands = [c for c in _commands(_section_block("Set up")) if c.startswith("pip ")]
-    assert pip_commands[0] == 'pip install -e ".[demo]"'
-    assert "torch" not in _section_block("Set up").split("\n")[1]
-    # CI runs the demo between that install and the first one that brings torch
-    ci_lines = [line.strip() for line in CI_SCRIPT.splitlines()]
-    demo = next(i for i, line in enumerate(ci_lines) if line.startswith("bubblerob demo"))
-    first_torch = next(
-        i for i, line in enumerate(ci_lines) if "torch" in line and line[:4] == "pip "
+def _make(*args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        ["make", *args], capture_output=True, text=True, timeout=60, cwd=cwd, check=False
     )
-    assert ci_lines.index(pip_commands[0]) < demo < first_torch
 
 
-def test_ci_ends_with_readmes_test_command():
-    test_command = _commands(_section_block("Run the tests"))[-1]
-    assert test_command == "python -m pytest"
-    ci_commands = [line for line in CI_SCRIPT.splitlines() if line and not line.startswith("#")]
-    assert ci_commands[-1] == test_command
+def _dry_run(goal: str) -> str:
+    """What `make GOAL` would run, every branch of its recipes (make -n runs nothing)."""
+    result = _make("-n", goal, "VENV=.venv", "VENV_ROS2=.venv-ros2", "PYTHON=python3")
+    assert result.returncode == 0, result.stderr
+    return result.stdout
+
+
+def _position_in(dry_run: str, command: str, start: int) -> int:
+    """Where README's by-hand COMMAND is in a make dry run, searching from START (-1: not there)."""
+    if command == "source .venv/bin/activate":
+        # make calls the venv's programs by path instead: `.venv/bin/pip install ...`
+        return start
+    if command == "apt-get update":
+        # make's apt step runs it first, where any of its packages is missing
+        return start if "apt-get update && " in dry_run else -1
+    if command.startswith("apt-get install -y "):
+        # make loops over the packages and apt-get installs the missing ones
+        if "apt-get install -y $missing" not in dry_run:
+            return -1
+        packages = command.removeprefix("apt-get install -y ")
+        return dry_run.find(f"for package in {packages};", start)
+    return dry_run.find(command, start)
+
+
+def _assert_make_runs_in_order(goal: str, commands: list[str]) -> None:
+    dry_run, position = _dry_run(goal), 0
+    for line in commands:
+        for command in line.split(" && "):
+            found = _position_in(dry_run, command, position)
+            assert found >= 0, f"make {goal} does not run README's {command!r} (in this order)"
+            position = found
+
+
+def test_readme_shows_the_two_make_commands_first():
+    assert _commands(_section_block("Set up")) == ["make demo", "make test"]
+    assert _commands(_section_block("Run the demo")) == ["make demo"]
+    assert _commands(_section_block("Run the tests")) == ["make test"]
+
+
+def test_make_demo_runs_readmes_by_hand_steps_and_brings_no_torch():
+    by_hand = _commands(_section_blocks("Set up")[1]) + _commands(
+        _section_blocks("Run the demo")[1]
+    )
+    assert by_hand[-1] == "bubblerob demo"
+    assert 'pip install -e ".[demo]"' in by_hand
+    _assert_make_runs_in_order("demo", by_hand)
+    assert "torch" not in _dry_run("demo")
+
+
+def test_make_test_runs_readmes_by_hand_steps_then_pytest():
+    by_hand = _commands(_section_blocks("Set up")[1]) + _commands(
+        _section_blocks("Run the tests")[1]
+    )
+    assert by_hand[-1] == "python -m pytest"
+    _assert_make_runs_in_order("test", by_hand)
+    # README's CPU-only torch line (Set up's training block) is the one make test runs
+    torch_line = _commands(_section_blocks("Set up")[2])[0]
+    assert torch_line in by_hand
+    assert _dry_run("test").rstrip().endswith("python -m pytest")
+
+
+def test_ci_runs_make_demo_torch_free_then_make_test():
+    ci = _ci_commands()
+    demo = next(i for i, line in enumerate(ci) if line.startswith("make demo"))
+    torch_check = next(i for i, line in enumerate(ci) if "find_spec('torch')" in line)
+    assert demo < torch_check < len(ci) - 1
+    assert ci[-1] == "make test"
+    # every install goes through make: CI proves README's commands, not its own
+    assert not [line for line in ci if re.match(r"(pip|apt-get|python3? -m (pip|venv)) ", line)]
+
+
+def _stamped_venv(tmp_path: Path, stamp: str, inputs: str) -> Path:
+    venv = tmp_path / "venv"
+    (venv / "bin").mkdir(parents=True)
+    (venv / "bin" / "python").symlink_to(sys.executable)
+    (venv / stamp).write_text(inputs)
+    return venv
+
+
+def _sha256_line(path: str) -> str:
+    return subprocess.run(
+        ["sha256sum", path], capture_output=True, text=True, cwd=ROOT, check=True
+    ).stdout
+
+
+def test_make_skips_an_install_whose_stamp_matches_and_says_so(tmp_path):
+    for stamp in (".stamp-demo", ".stamp-all"):  # [all] includes [demo]
+        venv = _stamped_venv(tmp_path / stamp, stamp, _sha256_line("pyproject.toml"))
+        result = _make("venv-demo", f"VENV={venv}")
+        assert result.returncode == 0, result.stderr
+        assert f"setup: {venv} exists: skipped" in result.stdout
+        assert f"setup: {venv} has .[demo] for this pyproject.toml: skipped" in result.stdout
+
+
+def test_make_installs_again_when_pyproject_changed(tmp_path):
+    # A stamp for another pyproject.toml: the install runs (and fails here, the venv having no
+    # pip), and no stamp is written for a step that failed.
+    stale = "0" * 64 + "  pyproject.toml\n"
+    venv = _stamped_venv(tmp_path, ".stamp-demo", stale)
+    result = _make("venv-demo", f"VENV={venv}")
+    assert result.returncode != 0
+    assert f"setup: installing .[demo] into {venv}" in result.stdout
+    assert (venv / ".stamp-demo").read_text() == stale
+
+
+@pytest.mark.skipif(shutil.which("dpkg-query") is None, reason="needs Debian's dpkg-query")
+def test_make_apt_installs_only_the_missing_packages():
+    # SUDO=echo prints the apt-get commands instead of running them.
+    result = _make("debs-demo", "DEMO_DEBS=coreutils no-such-package-bubblerob", "SUDO=echo")
+    assert result.returncode == 0, result.stderr
+    assert "installing Debian packages for rendering and videos: no-such-package" in result.stdout
+    assert "apt-get install -y no-such-package-bubblerob\n" in result.stdout
+    installed = _make("debs-demo", "DEMO_DEBS=coreutils", "SUDO=false")
+    assert installed.returncode == 0, installed.stderr
+    assert "Debian packages for rendering and videos are installed: skipped" in installed.stdout
+
+
+def test_make_says_which_torch_is_installed():
+    pytest.importorskip("torch")
+    result = _make("torch", f"VENV={sys.prefix}")
+    assert result.returncode == 0, result.stderr
+    import torch
+
+    build = "CPU-only build" if torch.version.cuda is None else f"CUDA {torch.version.cuda} build"
+    assert f"setup: torch {torch.__version__} ({build}, " in result.stdout
+    assert result.stdout.rstrip().endswith(f"is in {sys.prefix}: skipped")
 
 
 def _run_python_block(code: str, tmp_path: Path) -> subprocess.CompletedProcess[str]:
@@ -103,8 +217,8 @@ def test_readme_figure_command_writes_the_picture(tmp_path):
     assert "docs/make_figures.py" in README
 
 
-def _run_section(heading: str, cwd: Path) -> subprocess.CompletedProcess[str]:
-    script = "set -euo pipefail\n" + _section_block(heading)
+def _run_section(heading: str, cwd: Path, block: int = 0) -> subprocess.CompletedProcess[str]:
+    script = "set -euo pipefail\n" + _section_blocks(heading)[block]
     env = dict(os.environ, PATH=f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}")
     return subprocess.run(
         ["bash", "-c", script],
@@ -134,7 +248,7 @@ def test_readme_evaluate_and_train_commands(tmp_path):
 
 
 def test_readme_demo_command(tmp_path):
-    result = _run_section("Run the demo", tmp_path)
+    result = _run_section("Run the demo", tmp_path, block=1)  # by hand: bubblerob demo
     assert result.returncode == 0, result.stderr
     assert (tmp_path / "demo_output" / "bubblerob_demo_ppo").is_dir()
     assert (tmp_path / "demo_output" / "bubblerob_demo_ppo.mp4").stat().st_size > 10_000
