@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import dataclasses
 import inspect
 import math
 from pathlib import Path
@@ -24,11 +25,14 @@ from bubblerob_env.arena import (
     sample_layout,
 )
 from bubblerob_env.checks import (
+    check_choice,
     check_env_arguments,
     check_positive,
     check_start_pose,
     unexpected_kwargs_error,
 )
+from bubblerob_env.core.kernel import OUT
+from bubblerob_env.core.robots import LASER_BACKENDS, RobotBatch, analytic_unsupported
 from bubblerob_env.kinematics import DiffDrive
 from bubblerob_env.rendering import HumanViewer, OverheadRenderer
 from bubblerob_env.sensors import (
@@ -44,11 +48,12 @@ from bubblerob_env.sensors import (
 )
 from bubblerob_env.specs import EnvSpecs
 
-__all__ = ["ACTION_TYPES", "BubbleRobEnv"]
+__all__ = ["ACTION_TYPES", "OBS_MODES", "BubbleRobEnv"]
 
 ACTION_TYPES = ("wheels", "twist")
+OBS_MODES = ("dict", "flat")
 _DEFAULT_CAMERA_SIZE = 64
-_DATA_VIEWS = ("_ctrl", "_sensordata", "_pose", "_warnings")  # see _bind_views
+_DATA_VIEWS = ("_ctrl", "_sensordata", "_pose", "_warnings", "_core", "_one_robot")  # _bind_views
 _REWARD_PARTS = ("reward_forward", "reward_spin", "reward_clearance", "reward_collision")
 # MuJoCo resets the state itself after these: the episode cannot go on.
 _DIVERGENCE_WARNINGS = (
@@ -59,7 +64,11 @@ _DIVERGENCE_WARNINGS = (
 _BADQACC, _BADQPOS, _BADQVEL = (int(w) for w in _DIVERGENCE_WARNINGS)
 
 
-class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
+Observation = dict[str, NDArray[Any]] | NDArray[np.float32]
+"""A ``Dict`` observation (``obs_mode="dict"``) or a flat one (``obs_mode="flat"``)."""
+
+
+class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
     """BubbleRob, the CoppeliaSim tutorial robot, avoiding obstacles in a walled arena.
 
     ## Description
@@ -142,6 +151,10 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 20}
+    laser_spec: LaserSpec | None
+    proximity_spec: ProximitySpec
+    camera_spec: CameraSpec | None
+    _laser: Laser | None
     _ARENA_MEMORY: int | None = None  # bytes of MjData arena; None: the scene's (MuJoCo default)
 
     def __init__(
@@ -158,6 +171,7 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
         laser_range_min: float = 0.05,
         laser_range_max: float = 5.0,
         laser_noise_std: float = 0.0,
+        laser_backend: str = "auto",
         proximity_range_max: float = 0.6,
         proximity_trigger_distance: float = 0.3,
         proximity_radiation_type: str = "ULTRASOUND",
@@ -176,6 +190,7 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
         clearance_distance: float = 0.35,
         collision_penalty: float = 100.0,
         terminate_on_collision: bool = True,
+        obs_mode: str = "dict",
         render_mode: str | None = None,
         render_width: int = 480,
         render_height: int = 480,
@@ -198,6 +213,11 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
             laser_range_min: Minimum valid range (m), reported to ROS.
             laser_range_max: Maximum range (m); no return reads this value.
             laser_noise_std: Standard deviation (m) of Gaussian noise on each hit.
+            laser_backend: ``"auto"``: the exact analytic caster where every laser-visible geom
+                is an upright box or cylinder that never tilts (the arena's walls and
+                obstacles), else MuJoCo's ``mj_multiRay``; ``"analytic"``: the caster or a
+                ``ValueError`` saying why not; ``"mujoco"``: always ``mj_multiRay``. Both give
+                the same readings; ``laser_spec.caster`` says which one runs.
             proximity_range_max: Range of the nose sensor (m).
             proximity_trigger_distance: Distance under which the nose sensor "triggers" (m).
             proximity_radiation_type: ``"ULTRASOUND"`` (the seed's ``FrontUS``) or
@@ -218,6 +238,11 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
             clearance_distance: Range (m) under which that cost starts.
             collision_penalty: Cost of touching a wall or an obstacle.
             terminate_on_collision: End the episode on collision.
+            obs_mode: ``"dict"`` (the ``Dict`` above) or ``"flat"``: one float32 ``Box`` of
+                the laser, proximity and velocity readings, in that order
+                (``env.unwrapped.observation_layout`` names each part's slice), for libraries
+                that take no ``Dict``. The camera has no place in it: ``camera`` with
+                ``"flat"`` is a ``ValueError``.
             render_mode: ``None``, ``"rgb_array"`` (overhead view with the laser drawn) or
                 ``"human"`` (a window; needs a display).
             render_width: Width of ``rgb_array`` frames.
@@ -237,6 +262,9 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
             if name not in ("self", "unknown_kwargs")
         }
         check_env_arguments(arguments, ACTION_TYPES, RADIATION_TYPES, self.metadata["render_modes"])
+        check_choice("laser_backend", laser_backend, LASER_BACKENDS)
+        check_choice("obs_mode", obs_mode, OBS_MODES)
+        self.obs_mode = obs_mode
         lo, hi = num_obstacles
         obstacle_size = (float(obstacle_size[0]), float(obstacle_size[1]))
 
@@ -286,6 +314,12 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
             camera_shadows,
             control_timestep,
         )
+        if self.camera_spec is not None and obs_mode == "flat":
+            raise ValueError(
+                "obs_mode='flat' has no place for the camera image; use obs_mode='dict' with "
+                "the camera, or drop camera/camera_width/camera_height"
+            )
+        analytic = self._choose_caster(laser_backend)
         self.static_transforms: tuple[StaticTransform, ...] = static_transforms(self.model)
         self.specs = EnvSpecs(
             self.laser_spec,
@@ -312,7 +346,28 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
         self._clipped_actions = 0
         self._collided = False
         self._closed = False
+        self._analytic = analytic
         self._bind_views()
+
+    def _choose_caster(self, laser_backend: str) -> bool:
+        """Whether the analytic caster runs (see ``laser_backend``); names it in the laser spec."""
+        if self.laser_spec is None:
+            return False
+        mujoco.mj_forward(self.model, self.data)
+        problems = analytic_unsupported(self.model, self.data, self._slots.geom_ids)
+        mujoco.mj_resetData(self.model, self.data)
+        if laser_backend == "analytic" and problems:
+            raise ValueError(
+                f"laser_backend='analytic' cannot cast in the scene {self.xml_file.name}: "
+                f"{'; '.join(problems[:5])} (it models upright boxes and cylinders); use "
+                "laser_backend='auto' or 'mujoco'"
+            )
+        analytic = laser_backend != "mujoco" and not problems
+        caster = "analytic" if analytic else "mujoco"
+        self.laser_spec = dataclasses.replace(self.laser_spec, caster=caster)
+        if self._laser is not None:
+            self._laser.spec = self.laser_spec
+        return analytic
 
     def _build_sensors(
         self,
@@ -391,14 +446,34 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
         if self.camera_spec is not None:
             shape = (self.camera_spec.height, self.camera_spec.width, 3)
             obs_spaces["camera"] = spaces.Box(0, 255, shape, np.uint8)
-        self.observation_space = spaces.Dict(obs_spaces)  # type: ignore[assignment]
+        self.dict_observation_space = spaces.Dict(obs_spaces)
+        """The ``Dict`` space, whatever ``obs_mode`` is."""
+        self.observation_layout: dict[str, slice] = {}
+        """``obs_mode="flat"``: each reading's slice of the flat observation."""
+        if self.obs_mode == "dict":
+            self.observation_space = self.dict_observation_space  # type: ignore[assignment]
+            return
+        lows, highs, start = [], [], 0
+        for key, box in obs_spaces.items():
+            assert isinstance(box, spaces.Box)
+            self.observation_layout[key] = slice(start, start + box.shape[0])
+            start += box.shape[0]
+            lows.append(box.low)
+            highs.append(box.high)
+        self.observation_space = spaces.Box(
+            np.concatenate(lows), np.concatenate(highs), dtype=np.float32
+        )
 
     def _bind_views(self) -> None:
-        # Views into self.data for the step path; rebuilt after unpickling (a copy has new data).
+        # Views into self.data and the kernel's addresses of this robot's model and data;
+        # rebuilt after unpickling (a copy has new data, and Ray hands back read-only arrays).
         self._ctrl = self.data.ctrl
         self._sensordata = self.data.sensordata
         self._pose = self.data.qpos[self._root_qpos : self._root_qpos + 7]
         self._warnings = self.data.warning.number
+        self._core = RobotBatch([self], self._analytic)
+        self._core.refresh_geoms(0, self.model)
+        self._one_robot = self._core.all_robots
 
     def _size_framebuffer(self, *sizes: tuple[int, int]) -> None:
         # Renderers need an offscreen buffer at least as large as their image.
@@ -413,7 +488,7 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:
+    ) -> tuple[Observation, dict[str, Any]]:
         """Draw a new arena layout and start pose (see Starting State)."""
         self._check_open("reset")
         super().reset(seed=seed)
@@ -439,57 +514,59 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
             )
         self._clipped_actions = 0
         self._collided = False
-        obs = self._observe()
-        parts = dict.fromkeys(_REWARD_PARTS, 0.0)
-        info = self._info(obs, np.zeros(2), False, parts, False)
+        core = self._core
+        core.refresh_geoms(0, self.model)
+        self._draw_noise()
+        core.observe(self._one_robot)
+        row = core.out[0]
+        row[OUT.COLLISION] = row[OUT.CLIPPED] = 0.0
+        row[OUT.WHEEL_COMMAND : OUT.WHEEL_COMMAND + 2] = 0.0
+        row[OUT.REWARD : OUT.COLLISION_COST + 1] = 0.0
+        obs = self._observation()
+        info = self._info(row)
         if self.render_mode == "human":
             self.render()
         return obs, info
 
     def step(
         self, action: NDArray[np.float32]
-    ) -> tuple[dict[str, NDArray[Any]], float, bool, bool, dict[str, Any]]:
+    ) -> tuple[Observation, float, bool, bool, dict[str, Any]]:
         """Apply ``action`` for one control step (see Action Space)."""
         self._check_open("step")
-        command, was_clipped = self._command(action)
-        self._clipped_actions += was_clipped
-        self._ctrl[:] = command
-        # step2 then step1 leaves kinematics, contacts and sensors computed for the final state:
-        # the same work as mj_step, but the observation is not one substep stale. Contacts are
-        # checked after every substep: a touch that begins and ends inside one control step
-        # is still a collision.
-        model, data = self.model, self.data
-        step1, step2, in_collision = mujoco.mj_step1, mujoco.mj_step2, self._in_collision
-        collision = False
-        for _ in range(self.physics_substeps):
-            step2(model, data)
-            step1(model, data)
-            collision = collision or in_collision()
-
-        diverged = self._diverged()
-        obs = self._observe()
-        forward_speed, yaw_rate = obs["velocity"].tolist()
-        parts = {
-            "reward_forward": self.forward_reward_weight * forward_speed / self.max_linear_speed,
-            "reward_spin": -self.spin_cost_weight * abs(yaw_rate) / self.max_angular_speed,
-            "reward_clearance": -self.clearance_cost_weight * self._closeness(obs),
-            "reward_collision": -self.collision_penalty if collision else 0.0,
-        }
-        reward = sum(parts.values())
+        core = self._core
+        core.actions[0] = self._checked_action(action)
+        self._draw_noise()
+        # The kernel does what this method did in Python, with the same arithmetic: step2 then
+        # step1 per substep (kinematics, contacts and sensors of the final state), a contact
+        # check after every substep (a touch that begins and ends inside one control step is
+        # still a collision), the sensors, the reward and its parts.
+        core.step(self._one_robot)
+        row = core.out[0]
+        collision = bool(row[OUT.COLLISION])
+        clipped = bool(row[OUT.CLIPPED])
+        self._clipped_actions += clipped
+        diverged = self._diverged() if row[OUT.DIVERGED] else ""
+        obs = self._observation()
+        reward = float(row[OUT.REWARD])
         terminated = collision and self.terminate_on_collision
         self._collided = self._collided or collision
         if self.render_mode == "human":
             self.render()
-        info = self._info(obs, command, collision, parts, was_clipped)
+        info = self._info(row)
         # Success so far: on the episode's last step, whether the episode is a success.
         info["is_success"] = not (self._collided or diverged)
         if diverged:
             info["physics_diverged"] = diverged
         return obs, reward, terminated, bool(diverged), info
 
-    def _command(self, action: NDArray[np.float32]) -> tuple[NDArray[np.float64], bool]:
-        """Wheel speed targets (rad/s) for ``action``, and whether it had to be clipped."""
-        raw = np.asarray(action, dtype=np.float64)
+    def _checked_action(self, action: NDArray[np.float32]) -> tuple[float, float]:
+        """The action as two finite floats, or a ``ValueError`` saying what is wrong."""
+        try:
+            raw = np.asarray(action, dtype=np.float64)
+        except (TypeError, ValueError, OverflowError) as error:
+            raise ValueError(
+                f"action must be 2 finite numbers (clipped to [-1, 1]), got {action!r}: {error}"
+            ) from None
         if raw.shape != (2,):
             raise ValueError(f"action must have shape (2,), got shape {raw.shape}: {raw!r}")
         a0, a1 = raw.tolist()
@@ -498,15 +575,13 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
                 f"action {[a0, a1]} contains NaN or infinity; actions must be finite numbers, "
                 "and are clipped to [-1, 1]"
             )
-        # Python floats give the same IEEE results as np.clip and numpy's products, faster.
-        c0, c1 = min(1.0, max(-1.0, a0)), min(1.0, max(-1.0, a1))
-        was_clipped = c0 != a0 or c1 != a1
-        if self.action_type == "wheels":
-            limit = self.drive.max_wheel_speed
-            return np.array([c0 * limit, c1 * limit]), was_clipped
-        return self.drive.wheel_speeds(
-            c0 * self.max_linear_speed, c1 * self.max_angular_speed
-        ), was_clipped
+        return a0, a1
+
+    def _draw_noise(self) -> None:
+        # Laser noise comes from the episode's generator, one draw per scan, as before.
+        spec = self.laser_spec
+        if spec is not None and spec.noise_std > 0.0:
+            self._core.noise[0] = self.np_random.normal(0.0, spec.noise_std, size=spec.num_rays)
 
     def _diverged(self) -> str:
         """MuJoCo's divergence warning from this step, or ``""``.
@@ -563,23 +638,19 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
         if self._closed:
             raise RuntimeError(f"{method}() called after close(); make a new env")
 
-    def _observe(self) -> dict[str, NDArray[Any]]:
+    def _observation(self) -> Observation:
+        """The kernel's readings of this robot as an observation (copies: buffers are reused)."""
+        core = self._core
         obs: dict[str, NDArray[Any]] = {}
-        if self._laser is not None:
-            self._last_laser = self._laser(self.model, self.data, self.np_random)
-            obs["laser"] = self._last_laser
-        obs["proximity"] = self._proximity(self.model, self.data)
-        velocity = self._sensordata[self._velocity_idx]
-        np.clip(velocity, self._velocity_low, self._velocity_limit, out=velocity)
-        obs["velocity"] = velocity.astype(np.float32)
+        if self.laser_spec is not None:
+            obs["laser"] = self._last_laser = core.laser[0].copy()
+        obs["proximity"] = core.proximity[0].copy()
+        obs["velocity"] = core.velocity[0].copy()
         if self._camera is not None:
             obs["camera"] = self._camera(self.model, self.data)
+        if self.obs_mode == "flat":
+            return np.concatenate(list(obs.values()))
         return obs
-
-    def _closeness(self, obs: dict[str, NDArray[Any]]) -> float:
-        nearest = float(obs["laser"].min()) if "laser" in obs else float(obs["proximity"][0])
-        span = self.clearance_distance - ROBOT_RADIUS
-        return min(1.0, max(0.0, (self.clearance_distance - nearest) / span))
 
     def _in_collision(self) -> bool:
         # Only robot geoms collide with walls and obstacles (contype/conaffinity in the MJCF).
@@ -592,35 +663,27 @@ class BubbleRobEnv(gym.Env[dict[str, NDArray[Any]], NDArray[np.float32]]):
                 return True
         return False
 
-    def _info(
-        self,
-        obs: dict[str, NDArray[Any]],
-        command: NDArray[np.float64],
-        collision: bool,
-        parts: dict[str, float],
-        clipped: bool,
-    ) -> dict[str, Any]:
-        pose = self._pose
-        position = pose[:3].copy()
-        quat = pose[3:].copy()
-        w, x, y, z = quat.tolist()
-        sensordata = self._sensordata
+    def _info(self, row: NDArray[np.float64]) -> dict[str, Any]:
+        """``info`` from the kernel's numbers for this robot."""
+        values = row.tolist()
         return {
-            "sim_time": float(self.data.time),
-            "x": float(position[0]),
-            "y": float(position[1]),
-            # kinematics.yaw_from_quat, inlined
-            "yaw": math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)),
-            "position": position,
-            "quaternion_wxyz": quat,
-            "body_twist": sensordata[self._twist_idx],
-            "wheel_speeds": sensordata[self._wheel_idx],
-            "wheel_command": np.array(command, dtype=np.float64),
-            "collision": collision,
-            "proximity_triggered": self.proximity_spec.triggered(float(obs["proximity"][0])),
-            "action_clipped": clipped,
+            "sim_time": values[OUT.SIM_TIME],
+            "x": values[OUT.POSITION],
+            "y": values[OUT.POSITION + 1],
+            "yaw": values[OUT.YAW],
+            "position": row[OUT.POSITION : OUT.POSITION + 3].copy(),
+            "quaternion_wxyz": row[OUT.QUATERNION : OUT.QUATERNION + 4].copy(),
+            "body_twist": row[OUT.TWIST : OUT.TWIST + 6].copy(),
+            "wheel_speeds": row[OUT.WHEEL_SPEEDS : OUT.WHEEL_SPEEDS + 2].copy(),
+            "wheel_command": row[OUT.WHEEL_COMMAND : OUT.WHEEL_COMMAND + 2].copy(),
+            "collision": bool(values[OUT.COLLISION]),
+            "proximity_triggered": self.proximity_spec.triggered(float(self._core.proximity[0, 0])),
+            "action_clipped": bool(values[OUT.CLIPPED]),
             "clipped_actions": self._clipped_actions,
-            **parts,
+            "reward_forward": values[OUT.FORWARD],
+            "reward_spin": values[OUT.SPIN],
+            "reward_clearance": values[OUT.CLEARANCE],
+            "reward_collision": values[OUT.COLLISION_COST],
         }
 
     def render(self) -> NDArray[np.uint8] | None:

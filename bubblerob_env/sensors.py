@@ -51,6 +51,10 @@ class LaserSpec:
     noise_std: float = 0.0
     frame_id: str = names.LASER_SITE
     scan_time: float = 0.05
+    caster: str = "mujoco"
+    """Which caster produces the readings: ``"analytic"`` (exact rays against the scene's
+    boxes and cylinders, :mod:`bubblerob_env.core.raycast`) or ``"mujoco"`` (``mj_multiRay``).
+    Both give the same readings where the analytic one applies."""
 
     def __post_init__(self) -> None:
         if self.num_rays < 1:

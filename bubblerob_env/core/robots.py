@@ -1,0 +1,224 @@
+"""The Python side of the kernel: each robot's addresses, the shared settings, the buffers.
+
+A :class:`RobotBatch` is built over one or more envs that share their settings (a single env is a
+batch of one). It owns the arrays :func:`~bubblerob_env.core.kernel.step_robots` reads and
+writes; the env and the vector env turn the results into observations and ``info``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from bubblerob_env import names
+from bubblerob_env.arena import ROBOT_RADIUS
+from bubblerob_env.core.kernel import (
+    CFG,
+    CFG_SIZE,
+    ICFG,
+    ICFG_SIZE,
+    OUT_SIZE,
+    PTR,
+    PTR_SIZE,
+    observe_robots,
+    step_robots,
+)
+from bubblerob_env.core.mjabi import data_layout
+from bubblerob_env.core.raycast import GEOM_BOX, GEOM_CYLINDER
+
+if TYPE_CHECKING:
+    from bubblerob_env.env import BubbleRobEnv
+
+__all__ = ["LASER_BACKENDS", "RobotBatch", "analytic_unsupported", "laser_geoms"]
+
+LASER_BACKENDS = ("auto", "analytic", "mujoco")
+"""``laser_backend`` values: the analytic caster where the scene allows it (``auto``), always
+(``analytic``: an error where it cannot), or MuJoCo's ``mj_multiRay`` (``mujoco``)."""
+_UPRIGHT_TOLERANCE = 1e-9
+_WARNINGS = mujoco.mjtWarning
+
+
+def laser_geoms(model: mujoco.MjModel) -> NDArray[np.int32]:
+    """Geoms the laser may see: those in the laser's group (as ``mj_multiRay`` clamps groups)."""
+    groups = np.clip(model.geom_group, 0, mujoco.mjNGROUP - 1)
+    return np.flatnonzero(groups == names.OBSTACLE_GROUP).astype(np.int32)
+
+
+def analytic_unsupported(
+    model: mujoco.MjModel, data: mujoco.MjData, slot_geoms: Sequence[int]
+) -> list[str]:
+    """Why the analytic caster cannot stand in for ``mj_multiRay`` here (empty: it can).
+
+    It models boxes and cylinders that are vertical prisms (local z axis vertical) and never
+    tilt: geoms of the world body or of static bodies, and the env's own obstacle slots, which
+    only turn about z. ``data`` must hold a state after ``mj_forward``.
+    """
+    problems = []
+    slots = set(slot_geoms)
+    for geom in laser_geoms(model).tolist():
+        name = model.geom(geom).name or f"geom {geom}"
+        kind = int(model.geom_type[geom])
+        if kind not in (GEOM_BOX, GEOM_CYLINDER):
+            problems.append(f"{name} is a {mujoco.mjtGeom(kind).name[7:].lower()}")
+        elif geom not in slots and model.body_weldid[model.geom_bodyid[geom]] != 0:
+            problems.append(f"{name} is on a moving body")
+        elif abs(abs(float(data.geom_xmat[geom][8])) - 1.0) > _UPRIGHT_TOLERANCE:
+            problems.append(f"{name} is not upright")
+    return problems
+
+
+class RobotBatch:
+    """Kernel inputs and outputs for ``envs``, robot ``i`` being ``envs[i]``."""
+
+    def __init__(self, envs: Sequence[BubbleRobEnv], analytic: bool) -> None:
+        first = envs[0]
+        n = len(envs)
+        spec = first.laser_spec
+        nray = spec.num_rays if spec is not None else 0
+        self.analytic = analytic
+        self.ptrs = np.zeros((n, PTR_SIZE), dtype=np.uint64)
+        self.icfg = _int_settings(first, analytic)
+        self.cfg = _float_settings(first)
+        model = first.model
+        is_obstacle = (model.geom_group == names.OBSTACLE_GROUP).astype(np.uint8)
+        geomgroup = np.zeros(mujoco.mjNGROUP, dtype=np.uint8)
+        geomgroup[names.OBSTACLE_GROUP] = 1
+        local_dirs = np.zeros((nray, 3))
+        if spec is not None:
+            angles = spec.angles()
+            local_dirs = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=1)
+        self.tables = (is_obstacle, model.geom_type.astype(np.int32), local_dirs, geomgroup)
+        self._laser_geoms = laser_geoms(model)
+        self.cast_geoms = np.full((n, max(1, self._laser_geoms.size)), -1, dtype=np.int32)
+        self.noise = np.zeros((n, nray))
+        self.scratch = (np.zeros((n, nray, 3)), np.zeros((n, nray)), np.zeros((n, nray), np.int32))
+        self.actions = np.zeros((n, 2))
+        self.laser = np.zeros((n, nray), dtype=np.float32)
+        self.proximity = np.zeros((n, 1), dtype=np.float32)
+        self.velocity = np.zeros((n, 2), dtype=np.float32)
+        self.out = np.zeros((n, OUT_SIZE))
+        self.all_robots = np.arange(n, dtype=np.int64)
+        for i, env in enumerate(envs):
+            self.bind(i, env.model, env.data)
+
+    def bind(self, i: int, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """Point robot ``i`` at this model and data (after building or unpickling them)."""
+        site = model.site(names.LASER_SITE).id
+        root = int(model.joint(names.ROOT_JOINT).qposadr[0])
+        row = self.ptrs[i]
+        row[PTR.MODEL], row[PTR.DATA] = model._address, data._address
+        for column, array in (
+            (PTR.CTRL, data.ctrl),
+            (PTR.SENSORDATA, data.sensordata),
+            (PTR.QPOS, data.qpos[root:]),
+            (PTR.WARNINGS, data.warning.number),
+            (PTR.SITE_XPOS, data.site_xpos[site]),
+            (PTR.SITE_XMAT, data.site_xmat[site]),
+            (PTR.GEOM_XPOS, data.geom_xpos),
+            (PTR.GEOM_XMAT, data.geom_xmat),
+            (PTR.GEOM_SIZE, model.geom_size),
+            (PTR.GEOM_RBOUND, model.geom_rbound),
+        ):
+            row[column] = array.ctypes.data
+
+    def refresh_geoms(self, i: int, model: mujoco.MjModel) -> None:
+        """Robot ``i``'s laser-visible geoms, as ``mj_multiRay`` culls invisible ones (alpha 0)."""
+        geoms = self._laser_geoms
+        matid = model.geom_matid[geoms]
+        material_alpha = model.mat_rgba[np.maximum(matid, 0), 3]
+        alpha = np.where(matid >= 0, material_alpha, model.geom_rgba[geoms, 3])
+        visible = geoms[alpha != 0]
+        self.cast_geoms[i, :] = -1
+        self.cast_geoms[i, : visible.size] = visible
+
+    def step(self, robots: NDArray[np.int64]) -> None:
+        """One control step of ``robots`` with the actions in ``self.actions`` (GIL released)."""
+        step_robots(
+            robots,
+            self.ptrs,
+            self.actions,
+            self.icfg,
+            self.cfg,
+            self.tables,
+            self.cast_geoms,
+            self.noise,
+            self.scratch,
+            self.laser,
+            self.proximity,
+            self.velocity,
+            self.out,
+        )
+
+    def observe(self, robots: NDArray[np.int64]) -> None:
+        """Sensors and ``info`` numbers of ``robots`` as they are (after a reset)."""
+        observe_robots(
+            robots,
+            self.ptrs,
+            self.icfg,
+            self.cfg,
+            self.tables,
+            self.cast_geoms,
+            self.noise,
+            self.scratch,
+            self.laser,
+            self.proximity,
+            self.velocity,
+            self.out,
+        )
+
+
+def _int_settings(env: BubbleRobEnv, analytic: bool) -> NDArray[np.int64]:
+    layout = data_layout()
+    model = env.model
+    icfg = np.zeros(ICFG_SIZE, dtype=np.int64)
+    icfg[ICFG.SUBSTEPS] = env.physics_substeps
+    icfg[ICFG.TWIST] = env.action_type == "twist"
+    icfg[ICFG.NCON], icfg[ICFG.TIME], icfg[ICFG.CONTACT] = layout.ncon, layout.time, layout.contact
+    icfg[ICFG.CONTACT_SIZE], icfg[ICFG.CONTACT_GEOM] = layout.contact_size, layout.contact_geom
+    icfg[ICFG.VELOCITY_ADR] = model.sensor(names.VELOCIMETER_SENSOR).adr[0]
+    icfg[ICFG.GYRO_ADR] = model.sensor(names.GYRO_SENSOR).adr[0]
+    icfg[ICFG.WHEEL_ADR] = model.sensor(names.LEFT_WHEEL_SPEED_SENSOR).adr[0]
+    icfg[ICFG.WHEEL_ADR + 1] = model.sensor(names.RIGHT_WHEEL_SPEED_SENSOR).adr[0]
+    icfg[ICFG.PROXIMITY_ADR] = model.sensor(names.PROXIMITY_SENSOR).adr[0]
+    icfg[ICFG.NSENSORDATA] = model.nsensordata
+    warnings = mujoco.MjData(model).warning.number
+    icfg[ICFG.WARNING_STRIDE] = warnings.strides[0]
+    icfg[ICFG.BADQACC] = _WARNINGS.mjWARN_BADQACC
+    icfg[ICFG.BADQPOS] = _WARNINGS.mjWARN_BADQPOS
+    icfg[ICFG.BADQVEL] = _WARNINGS.mjWARN_BADQVEL
+    icfg[ICFG.CONTACTFULL] = _WARNINGS.mjWARN_CONTACTFULL
+    icfg[ICFG.CNSTRFULL] = _WARNINGS.mjWARN_CNSTRFULL
+    icfg[ICFG.LASER] = env.laser_spec is not None
+    icfg[ICFG.ANALYTIC] = analytic
+    icfg[ICFG.NOISE] = env.laser_spec is not None and env.laser_spec.noise_std > 0.0
+    return icfg
+
+
+def _float_settings(env: BubbleRobEnv) -> NDArray[np.float64]:
+    cfg = np.zeros(CFG_SIZE)
+    drive = env.drive
+    cfg[CFG.MAX_WHEEL] = drive.max_wheel_speed
+    cfg[CFG.MAX_LINEAR], cfg[CFG.MAX_ANGULAR] = env.max_linear_speed, env.max_angular_speed
+    cfg[CFG.WHEEL_RADIUS], cfg[CFG.WHEEL_SEPARATION] = drive.wheel_radius, drive.wheel_separation
+    spec = env.laser_spec
+    if spec is not None:
+        cfg[CFG.RANGE_MAX] = spec.range_max
+        cfg[CFG.ANGLE_MIN], cfg[CFG.ANGLE_INCREMENT] = spec.angle_min, spec.angle_increment
+        cfg[CFG.FULL_CIRCLE] = spec.full_circle
+        cfg[CFG.NOISY_CEILING] = np.nextafter(spec.range_max, 0)
+    cfg[CFG.PROXIMITY_MAX] = env.proximity_spec.range_max
+    cfg[CFG.VELOCITY_LIMIT_LINEAR], cfg[CFG.VELOCITY_LIMIT_ANGULAR] = env._velocity_limit
+    cfg[CFG.FORWARD_WEIGHT] = env.forward_reward_weight
+    cfg[CFG.SPIN_WEIGHT] = env.spin_cost_weight
+    cfg[CFG.CLEARANCE_WEIGHT] = env.clearance_cost_weight
+    cfg[CFG.CLEARANCE_DISTANCE] = env.clearance_distance
+    cfg[CFG.HULL] = ROBOT_RADIUS
+    cfg[CFG.COLLISION_PENALTY] = env.collision_penalty
+    if not math.isfinite(float(cfg.sum())):
+        raise ValueError("the env's speeds and reward weights must be finite numbers")
+    return cfg
