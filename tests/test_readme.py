@@ -37,9 +37,14 @@ def _ci_commands() -> list[str]:
     return [line.strip() for line in CI_SCRIPT.splitlines() if line and not line.startswith("#")]
 
 
-def _make(*args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess[str]:
+def _make(*args: str) -> subprocess.CompletedProcess[str]:
+    # Not as a sub-make of `make test`: its variables (PYTEST_ARGS=...) would carry over, through
+    # MAKEFLAGS and the environment.
+    outer = {"MAKEFLAGS", "MFLAGS", "MAKELEVEL", "MAKEOVERRIDES", "PYTEST_ARGS", "DEMO_ARGS"}
+    outer |= {"VENV", "VENV_ROS2", "PYTHON", "TORCH_CPU_INDEX", "TORCH_FALLBACK"}
+    env = {name: value for name, value in os.environ.items() if name not in outer}
     return subprocess.run(
-        ["make", *args], capture_output=True, text=True, timeout=60, cwd=cwd, check=False
+        ["make", *args], capture_output=True, text=True, timeout=60, cwd=ROOT, env=env, check=False
     )
 
 
