@@ -33,6 +33,7 @@ from bubblerob_env.checks import (
 )
 from bubblerob_env.core.kernel import OUT
 from bubblerob_env.core.robots import LASER_BACKENDS, RobotBatch, analytic_unsupported
+from bubblerob_env.infos import robot_info
 from bubblerob_env.kinematics import DiffDrive
 from bubblerob_env.rendering import HumanViewer, OverheadRenderer
 from bubblerob_env.sensors import (
@@ -523,7 +524,7 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
         row[OUT.WHEEL_COMMAND : OUT.WHEEL_COMMAND + 2] = 0.0
         row[OUT.REWARD : OUT.COLLISION_COST + 1] = 0.0
         obs = self._observation()
-        info = self._info(row)
+        info = self._info()
         if self.render_mode == "human":
             self.render()
         return obs, info
@@ -552,7 +553,7 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
         self._collided = self._collided or collision
         if self.render_mode == "human":
             self.render()
-        info = self._info(row)
+        info = self._info()
         # Success so far: on the episode's last step, whether the episode is a success.
         info["is_success"] = not (self._collided or diverged)
         if diverged:
@@ -663,28 +664,11 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
                 return True
         return False
 
-    def _info(self, row: NDArray[np.float64]) -> dict[str, Any]:
+    def _info(self) -> dict[str, Any]:
         """``info`` from the kernel's numbers for this robot."""
-        values = row.tolist()
-        return {
-            "sim_time": values[OUT.SIM_TIME],
-            "x": values[OUT.POSITION],
-            "y": values[OUT.POSITION + 1],
-            "yaw": values[OUT.YAW],
-            "position": row[OUT.POSITION : OUT.POSITION + 3].copy(),
-            "quaternion_wxyz": row[OUT.QUATERNION : OUT.QUATERNION + 4].copy(),
-            "body_twist": row[OUT.TWIST : OUT.TWIST + 6].copy(),
-            "wheel_speeds": row[OUT.WHEEL_SPEEDS : OUT.WHEEL_SPEEDS + 2].copy(),
-            "wheel_command": row[OUT.WHEEL_COMMAND : OUT.WHEEL_COMMAND + 2].copy(),
-            "collision": bool(values[OUT.COLLISION]),
-            "proximity_triggered": self.proximity_spec.triggered(float(self._core.proximity[0, 0])),
-            "action_clipped": bool(values[OUT.CLIPPED]),
-            "clipped_actions": self._clipped_actions,
-            "reward_forward": values[OUT.FORWARD],
-            "reward_spin": values[OUT.SPIN],
-            "reward_clearance": values[OUT.CLEARANCE],
-            "reward_collision": values[OUT.COLLISION_COST],
-        }
+        return robot_info(
+            self._core, 0, self.proximity_spec.trigger_distance, self._clipped_actions
+        )
 
     def render(self) -> NDArray[np.uint8] | None:
         """``rgb_array``: overhead frame with the laser drawn; ``human``: update the window."""

@@ -3,14 +3,17 @@
 ``gym.make_vec("BubbleRob-v0", num_envs=N, vectorization_mode="vector_entry_point")`` makes one.
 
 Each robot is a :class:`~bubblerob_env.env.BubbleRobEnv` of its own (own ``MjModel`` copy, since
-obstacle sizes live in the model, own ``MjData`` and random generator), stepped by the env's own
+obstacle sizes live in the model, own ``MjData`` and random generator). A step is one call of the
+env's numba kernel (:mod:`bubblerob_env.core`) per thread share of the robots: physics, contact
+checks, sensors and rewards of the whole share with the GIL released once; observations, rewards
+and ``info`` are then built for the whole batch with numpy. The kernel is the single env's own
 code, so sub-env ``i`` reset with seed ``s`` gives bit for bit what ``gym.make("BubbleRob-v0")``
-reset with seed ``s`` gives, for any ``num_envs`` and ``num_threads``. The batch adds what
-``gym.make`` adds around one env: the time limit (``max_episode_steps``, 1000 by default) and
-autoreset. The physics substeps and the laser's rays run in MuJoCo's C code, which releases the GIL,
-on ``num_threads`` threads (default: the cores this process may use); each thread steps a fixed
-share of the robots. With the camera or ``render_mode="human"`` the calling thread steps them all
-(an OpenGL context belongs to its thread, and rendering dominates such a step anyway).
+reset with seed ``s`` gives, for any ``num_envs`` and ``num_threads``. Only resets (once per
+episode) and laser noise draws (each robot's own generator) run per robot in Python. The batch adds
+what ``gym.make`` adds around one env: the time limit (``max_episode_steps``, 1000 by default)
+and autoreset. Actions are checked for every robot before any robot steps: a bad row raises and
+nothing moves. With the camera or ``render_mode="human"`` the calling thread steps them all (an
+OpenGL context belongs to its thread, and rendering dominates such a step anyway).
 
 Autoreset: Gymnasium's default ``AutoresetMode.NEXT_STEP`` (the step after an episode ends resets
 that robot: reset observation, reward 0, reset ``info``), or ``autoreset_mode="SameStep"`` (the
@@ -25,31 +28,30 @@ Infos are Gymnasium's dict of arrays with a ``_key`` mask per key; array-valued 
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
-import mujoco
 import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numpy.typing import NDArray
 
 from bubblerob_env.checks import check_int_range
+from bubblerob_env.core.kernel import OUT
+from bubblerob_env.core.robots import RobotBatch
 from bubblerob_env.env import BubbleRobEnv
+from bubblerob_env.infos import batched_step_info, robot_step_info
 
 __all__ = ["ARENA_MEMORY", "BubbleRobVectorEnv", "collate_infos"]
 
 ARENA_MEMORY = 256 * 1024
 """Bytes of each robot's ``MjData`` arena (contacts, constraints, stack) instead of MuJoCo's 13 MB
 default; the most a robot used in long random runs is far below (see docs/BENCHMARKS.md)."""
-# MuJoCo drops contacts or constraints when the arena is full and says so in these counters.
-_ARENA_WARNINGS = (
-    int(mujoco.mjtWarning.mjWARN_CONTACTFULL),
-    int(mujoco.mjtWarning.mjWARN_CNSTRFULL),
-)
 
-Step = tuple[dict[str, NDArray[Any]], float, bool, bool, dict[str, Any]]
+BatchObs = dict[str, NDArray[Any]] | NDArray[np.float32]
+"""Batched observations: a dict of arrays (``obs_mode="dict"``) or one array (``"flat"``)."""
+Step = tuple[Any, float, bool, bool, dict[str, Any]]
 
 
 class _BatchEnv(BubbleRobEnv):
@@ -75,8 +77,8 @@ def _seeds(seed: int | Sequence[int | None] | None, n: int) -> list[int | None]:
     return seeds
 
 
-class BubbleRobVectorEnv(VectorEnv[dict[str, NDArray[Any]], NDArray[np.float32], NDArray[Any]]):
-    """``num_envs`` BubbleRobs stepped per call, with batched ``Dict`` observations.
+class BubbleRobVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
+    """``num_envs`` BubbleRobs stepped per call, with batched observations.
 
     Args:
         num_envs: Number of robots.
@@ -119,11 +121,16 @@ class BubbleRobVectorEnv(VectorEnv[dict[str, NDArray[Any]], NDArray[np.float32],
         self.single_action_space = first.action_space
         self.observation_space = batch_space(first.observation_space, num_envs)
         self.action_space = batch_space(first.action_space, num_envs)
+        self._core = RobotBatch(self.envs, first._analytic)
+        self._trigger = first.proximity_spec.trigger_distance
         # OpenGL contexts (camera, window) belong to the thread that made them: with them, the
         # calling thread steps every robot (rendering dominates the step then anyway).
         uses_gl = first.camera_spec is not None or first.render_mode == "human"
         self.num_threads = 1 if uses_gl else min(threads, num_envs)
-        self._shares = [range(k, num_envs, self.num_threads) for k in range(self.num_threads)]
+        self._shares = [
+            np.arange(k, num_envs, self.num_threads, dtype=np.int64)
+            for k in range(self.num_threads)
+        ]
         self._pool = (
             ThreadPoolExecutor(self.num_threads - 1, thread_name_prefix="bubblerob")
             if self.num_threads > 1
@@ -131,55 +138,63 @@ class BubbleRobVectorEnv(VectorEnv[dict[str, NDArray[Any]], NDArray[np.float32],
         )
         self._elapsed = np.zeros(num_envs, dtype=np.int64)
         self._autoreset = np.zeros(num_envs, dtype=bool)
+        self._collided = np.zeros(num_envs, dtype=bool)
+        self._clipped_actions = np.zeros(num_envs, dtype=np.int64)
         self._needs_reset = True
-        self._results: list[Any] = [None] * num_envs
+        self._closed = False
+        self._obs: dict[str, NDArray[Any]] = {}
 
     def reset(
         self,
         *,
         seed: int | Sequence[int | None] | None = None,
         options: dict[str, Any] | None = None,
-    ) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:
+    ) -> tuple[BatchObs, dict[str, Any]]:
         """Reset every robot (or those in ``options["reset_mask"]``); ``seed`` as Gymnasium's."""
+        self._check_open("reset")
         options = dict(options or {})
         mask = options.pop("reset_mask", None)
         chosen = np.ones(self.num_envs, dtype=bool) if mask is None else np.asarray(mask, bool)
         if chosen.shape != (self.num_envs,):
             raise ValueError(f"options['reset_mask'] must have shape ({self.num_envs},)")
         seeds = _seeds(seed, self.num_envs)
-        kwargs = {"options": options or None}
-
-        def reset_one(i: int) -> None:
-            self._results[i] = self.envs[i].reset(seed=seeds[i], **kwargs)
-
-        self._run(reset_one, [i for i in range(self.num_envs) if chosen[i]])
-        self._elapsed[chosen] = 0
+        infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
+        for i in np.flatnonzero(chosen).tolist():
+            infos[i] = self._reset_robot(i, seeds[i], options or None)
         self._autoreset[chosen] = False
         self._needs_reset = False
-        obs = self._batch_obs([self._results[i][0] for i in range(self.num_envs)])
-        infos = [self._results[i][1] if chosen[i] else {} for i in range(self.num_envs)]
-        return obs, collate_infos(infos)
+        return self._batched_obs(), collate_infos(infos)
+
+    def _reset_robot(
+        self, i: int, seed: int | None, options: dict[str, Any] | None
+    ) -> dict[str, Any]:
+        """Reset robot ``i`` as ``gym.make``'s env resets; its observation goes into the batch."""
+        env = self.envs[i]
+        obs, info = env.reset(seed=seed, options=options)
+        self._core.refresh_geoms(i, env.model)
+        self._store_obs(i, obs)
+        self._elapsed[i] = 0
+        self._collided[i] = False
+        self._clipped_actions[i] = 0
+        return info
 
     def step(
         self, actions: NDArray[np.float32]
-    ) -> tuple[
-        dict[str, NDArray[Any]],
-        NDArray[np.float64],
-        NDArray[np.bool_],
-        NDArray[np.bool_],
-        dict[str, Any],
-    ]:
+    ) -> tuple[BatchObs, NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_], dict[str, Any]]:
         """Step every robot with its row of ``actions`` (shape ``(num_envs, 2)``)."""
-        obs, rewards, terminated, truncated, infos, finals = self.step_robots(actions)
-        info = collate_infos(infos)
-        if any(final is not None for final in finals):
-            self._add_finals(info, finals)
+        result = self._step(actions)
+        obs, rewards, terminated, truncated, stepped, diverged, resets, finals = result
+        info = batched_step_info(
+            self._core, self._trigger, self._collided, self._clipped_actions, diverged, resets
+        )
+        if finals:
+            self._add_finals(info, finals, diverged)
         return obs, rewards, terminated, truncated, info
 
     def step_robots(
         self, actions: NDArray[np.float32]
     ) -> tuple[
-        dict[str, NDArray[Any]],
+        BatchObs,
         NDArray[np.float64],
         NDArray[np.bool_],
         NDArray[np.bool_],
@@ -191,93 +206,196 @@ class BubbleRobVectorEnv(VectorEnv[dict[str, NDArray[Any]], NDArray[np.float32],
         Also returns, in ``SameStep`` mode, the last ``(obs, reward, terminated, truncated, info)``
         of each robot whose episode ended in this step (else None).
         """
+        result = self._step(actions)
+        obs, rewards, terminated, truncated, stepped, diverged, resets, finals = result
+        infos = [
+            resets[i]
+            if i in resets
+            else robot_step_info(
+                self._core,
+                i,
+                self._trigger,
+                bool(self._collided[i]),
+                int(self._clipped_actions[i]),
+                diverged,
+            )
+            for i in range(self.num_envs)
+        ]
+        final_steps: list[Step | None] = [None] * self.num_envs
+        for i, (final_obs, final_info) in finals.items():
+            final_steps[i] = (final_obs, rewards[i], terminated[i], truncated[i], final_info)
+        return obs, rewards, terminated, truncated, infos, final_steps
+
+    def _checked_actions(self, actions: NDArray[np.float32]) -> NDArray[np.float64]:
+        """Every robot's action, checked before any robot steps (a bad row moves nothing)."""
         if self._needs_reset:
             raise RuntimeError("step() called before reset(): reset the vector env first")
-        actions = np.asarray(actions)
-        if actions.shape != self.action_space.shape:
+        try:
+            checked = np.asarray(actions, dtype=np.float64)
+        except (TypeError, ValueError, OverflowError) as error:
             raise ValueError(
-                f"actions must have shape {self.action_space.shape}, got {actions.shape}"
+                f"actions must be {self.num_envs} rows of 2 finite numbers: {error}"
+            ) from None
+        if checked.shape != self.action_space.shape:
+            raise ValueError(
+                f"actions must have shape {self.action_space.shape}, got {checked.shape}"
             )
-        autoreset = self._autoreset.copy()
-        same_step = self.autoreset_mode == AutoresetMode.SAME_STEP
-        finals: list[Step | None] = [None] * self.num_envs
-        self._run(lambda i: self._step_one(i, actions[i], bool(autoreset[i])), range(self.num_envs))
-        if same_step:
-            self._run(lambda i: self._reset_done(i, finals), range(self.num_envs))
-        obs_list, rewards, terminated, truncated, infos = zip(*self._results, strict=True)
-        terminated_arr = np.array(terminated, dtype=bool)
-        truncated_arr = np.array(truncated, dtype=bool)
-        if not same_step:
-            self._autoreset = terminated_arr | truncated_arr
-        return (
-            self._batch_obs(list(obs_list)),
-            np.array(rewards, dtype=np.float64),
-            terminated_arr,
-            truncated_arr,
-            list(infos),
-            finals,
-        )
+        bad = ~np.isfinite(checked).all(axis=1)
+        if bad.any():
+            rows = np.flatnonzero(bad)
+            raise ValueError(
+                f"actions of robot(s) {rows.tolist()} contain NaN or infinity "
+                f"({checked[rows[0]].tolist()}); actions must be finite numbers, and are clipped "
+                "to [-1, 1]; no robot was stepped"
+            )
+        return checked
 
-    def _step_one(self, i: int, action: NDArray[Any], autoreset: bool) -> None:
-        env = self.envs[i]
-        if autoreset:
-            obs, info = env.reset()
-            self._elapsed[i] = 0
-            self._results[i] = (obs, 0.0, False, False, info)
-        else:
-            self._results[i] = self._finish(i, env.step(action))
-
-    def _finish(self, i: int, result: Step) -> Step:
-        """The time limit, as ``TimeLimit`` applies it, and the arena check."""
-        obs, reward, terminated, truncated, info = result
-        warnings = self.envs[i]._warnings
-        if any(warnings[w] for w in _ARENA_WARNINGS):
+    def _step(self, actions: NDArray[np.float32]) -> tuple[Any, ...]:
+        """One step of the batch: kernel, time limits, autoresets; the pieces of both APIs."""
+        self._check_open("step")
+        checked = self._checked_actions(actions)
+        core = self._core
+        stepped = ~self._autoreset
+        robots = np.flatnonzero(stepped)
+        core.actions[:] = checked
+        self._draw_noise(robots)
+        self._run_kernel(stepped)
+        self._render_robots(robots)
+        out = core.out
+        if out[robots, OUT.ARENA_FULL].any():
+            i = int(robots[np.flatnonzero(out[robots, OUT.ARENA_FULL])[0]])
             raise RuntimeError(
                 f"robot {i}: MuJoCo's arena of {ARENA_MEMORY} bytes is full (contacts or "
                 "constraints were dropped); raise bubblerob_env.vector.ARENA_MEMORY"
             )
-        self._elapsed[i] += 1
-        if self.max_episode_steps is not None and self._elapsed[i] >= self.max_episode_steps:
-            truncated = True
-        return obs, reward, terminated, truncated, info
+        collision = stepped & (out[:, OUT.COLLISION] != 0.0)
+        self._collided |= collision
+        self._clipped_actions += stepped & (out[:, OUT.CLIPPED] != 0.0)
+        diverged = {
+            i: self.envs[i]._diverged() for i in robots[out[robots, OUT.DIVERGED] != 0].tolist()
+        }
+        rewards = np.where(stepped, out[:, OUT.REWARD], 0.0)
+        terminated = collision & self.envs[0].terminate_on_collision
+        truncated = np.zeros(self.num_envs, dtype=bool)
+        truncated[list(diverged)] = True
+        self._elapsed[stepped] += 1
+        if self.max_episode_steps is not None:
+            truncated |= stepped & (self._elapsed >= self.max_episode_steps)
+        obs = self._batched_obs()  # the step's observations, before any reset below
+        resets: dict[int, dict[str, Any]] = {}
+        finals: dict[int, tuple[Any, dict[str, Any]]] = {}
+        for i in np.flatnonzero(~stepped).tolist():  # NextStep: the step after the end
+            resets[i] = self._reset_robot(i, None, None)
+        if self.autoreset_mode == AutoresetMode.SAME_STEP:
+            for i in np.flatnonzero(terminated | truncated).tolist():
+                final_info = robot_step_info(
+                    core,
+                    i,
+                    self._trigger,
+                    bool(self._collided[i]),
+                    int(self._clipped_actions[i]),
+                    diverged,
+                )
+                finals[i] = (_robot_obs(obs, i), final_info)
+                resets[i] = self._reset_robot(i, None, None)
+        else:
+            self._autoreset = terminated | truncated
+        if resets:
+            obs = self._batched_obs()
+        return obs, rewards, terminated, truncated, stepped, diverged, resets, finals
 
-    def _reset_done(self, i: int, finals: list[Step | None]) -> None:
-        obs, reward, terminated, truncated, info = self._results[i]
-        if terminated or truncated:
-            finals[i] = self._results[i]
-            new_obs, new_info = self.envs[i].reset()
-            self._elapsed[i] = 0
-            self._results[i] = (new_obs, reward, terminated, truncated, new_info)
-
-    def _add_finals(self, info: dict[str, Any], finals: list[Step | None]) -> None:
-        done = np.array([f is not None for f in finals])
-        final_obs = np.empty(self.num_envs, dtype=object)
-        for i, final in enumerate(finals):
-            final_obs[i] = final[0] if final is not None else None
-        info["final_obs"], info["_final_obs"] = final_obs, done
-        info["final_info"] = collate_infos([f[4] if f is not None else {} for f in finals])
-        info["_final_info"] = done
-
-    def _run(self, work: Callable[[int], None], indices: Sequence[int]) -> None:
-        """``work(i)`` for every index, split over the threads (each its fixed share)."""
-        chosen = set(indices)
-        shares = [[i for i in share if i in chosen] for share in self._shares]
-
-        def run_share(share: list[int]) -> None:
-            for i in share:
-                work(i)
-
-        if self._pool is None:
-            for share in shares:
-                run_share(share)
+    def _render_robots(self, robots: NDArray[np.int64]) -> None:
+        # The camera's frames, and the windows of render_mode="human", robot by robot.
+        first = self.envs[0]
+        if first._camera is None and first.render_mode != "human":
             return
-        futures = [self._pool.submit(run_share, share) for share in shares[1:]]
-        run_share(shares[0])
+        for i in robots.tolist():
+            env = self.envs[i]
+            if env._camera is not None:
+                self._obs_camera[i] = env._camera(env.model, env.data)
+            if env.render_mode == "human":
+                if env.laser_spec is not None:
+                    env._last_laser = self._core.laser[i].copy()
+                env.render()
+
+    def _draw_noise(self, robots: NDArray[np.int64]) -> None:
+        # Each robot's laser noise from its own generator, as the single env draws it.
+        spec = self.envs[0].laser_spec
+        if spec is None or spec.noise_std <= 0.0:
+            return
+        for i in robots.tolist():
+            self._core.noise[i] = self.envs[i].np_random.normal(
+                0.0, spec.noise_std, size=spec.num_rays
+            )
+
+    def _run_kernel(self, stepped: NDArray[np.bool_]) -> None:
+        """One kernel call per thread share of the robots that step."""
+        shares = [share[stepped[share]] for share in self._shares]
+        if self._pool is None:
+            self._core.step(np.concatenate(shares) if len(shares) > 1 else shares[0])
+            return
+        futures = [self._pool.submit(self._core.step, share) for share in shares[1:]]
+        self._core.step(shares[0])
         for future in futures:
             future.result()
 
-    def _batch_obs(self, obs_list: list[dict[str, NDArray[Any]]]) -> dict[str, NDArray[Any]]:
-        return {key: np.array([obs[key] for obs in obs_list]) for key in obs_list[0]}
+    def _store_obs(self, i: int, obs: Any) -> None:
+        """Put robot ``i``'s reset observation into the kernel's buffers (and the camera's)."""
+        core, env = self._core, self.envs[i]
+        parts = (
+            obs
+            if isinstance(obs, dict)
+            else {key: obs[part] for key, part in env.observation_layout.items()}
+        )
+        if "laser" in parts:
+            core.laser[i] = parts["laser"]
+        core.proximity[i] = parts["proximity"]
+        core.velocity[i] = parts["velocity"]
+        if "camera" in parts:
+            self._obs_camera[i] = parts["camera"]
+
+    @property
+    def _obs_camera(self) -> NDArray[np.uint8]:
+        if "camera" not in self._obs:
+            spec = self.envs[0].camera_spec
+            assert spec is not None
+            self._obs["camera"] = np.zeros((self.num_envs, spec.height, spec.width, 3), np.uint8)
+        return self._obs["camera"]
+
+    def _batched_obs(self) -> BatchObs:
+        """The batch's observations: copies of the kernel's buffers (they are reused)."""
+        core = self._core
+        parts: dict[str, NDArray[Any]] = {}
+        if self.envs[0].laser_spec is not None:
+            parts["laser"] = core.laser.copy()
+        parts["proximity"] = core.proximity.copy()
+        parts["velocity"] = core.velocity.copy()
+        if self.envs[0].camera_spec is not None:
+            parts["camera"] = self._obs_camera.copy()
+        if self.envs[0].obs_mode == "flat":
+            return np.concatenate(list(parts.values()), axis=1)
+        return parts
+
+    def _add_finals(
+        self,
+        info: dict[str, Any],
+        finals: dict[int, tuple[Any, dict[str, Any]]],
+        diverged: dict[int, str],
+    ) -> None:
+        done = np.zeros(self.num_envs, dtype=bool)
+        done[list(finals)] = True
+        final_obs = np.empty(self.num_envs, dtype=object)
+        for i in range(self.num_envs):
+            final_obs[i] = finals[i][0] if i in finals else None
+        info["final_obs"], info["_final_obs"] = final_obs, done
+        info["final_info"] = collate_infos(
+            [finals[i][1] if i in finals else {} for i in range(self.num_envs)]
+        )
+        info["_final_info"] = done
+
+    def _check_open(self, method: str) -> None:
+        if self._closed:
+            raise RuntimeError(f"{method}() called after close(); make a new vector env")
 
     def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
         """Each robot's ``name`` attribute, called with the arguments if it is callable."""
@@ -304,14 +422,25 @@ class BubbleRobVectorEnv(VectorEnv[dict[str, NDArray[Any]], NDArray[np.float32],
         """Each robot's frame (``rgb_array``), or update their windows (``human``)."""
         if self.render_mode is None:
             return None
+        for i, env in enumerate(self.envs):
+            if env.laser_spec is not None:
+                env._last_laser = self._core.laser[i].copy()
         return tuple(env.render() for env in self.envs)
 
     def close_extras(self, **kwargs: Any) -> None:
         """Close every robot's renderers and the threads."""
+        self._closed = True
         for env in self.envs:
             env.close()
         if self._pool is not None:
             self._pool.shutdown()
+
+
+def _robot_obs(obs: Any, i: int) -> Any:
+    """Robot ``i``'s row of a batched observation (a copy)."""
+    if isinstance(obs, dict):
+        return {key: value[i].copy() for key, value in obs.items()}
+    return obs[i].copy()
 
 
 def collate_infos(infos: list[dict[str, Any]]) -> dict[str, Any]:

@@ -1,0 +1,121 @@
+"""``info`` from the kernel's numbers: one robot's dict, or a whole batch's dict of arrays.
+
+The single env and the batch build ``info`` here, from the same columns of
+:class:`~bubblerob_env.core.robots.RobotBatch`'s results, so a batch row equals the single env's
+``info`` key for key and type for type (``tests/test_vector_env.py`` compares them).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bubblerob_env.core.kernel import OUT
+from bubblerob_env.core.robots import RobotBatch
+
+__all__ = ["batched_step_info", "robot_info", "robot_step_info"]
+
+# (key, first column, width): width 0 is a float scalar, a width an array of that many floats.
+_FLOAT_COLUMNS = (
+    ("sim_time", OUT.SIM_TIME, 0),
+    ("x", OUT.POSITION, 0),
+    ("y", OUT.POSITION + 1, 0),
+    ("yaw", OUT.YAW, 0),
+    ("position", OUT.POSITION, 3),
+    ("quaternion_wxyz", OUT.QUATERNION, 4),
+    ("body_twist", OUT.TWIST, 6),
+    ("wheel_speeds", OUT.WHEEL_SPEEDS, 2),
+    ("wheel_command", OUT.WHEEL_COMMAND, 2),
+)
+_REWARD_COLUMNS = (
+    ("reward_forward", OUT.FORWARD),
+    ("reward_spin", OUT.SPIN),
+    ("reward_clearance", OUT.CLEARANCE),
+    ("reward_collision", OUT.COLLISION_COST),
+)
+
+
+def robot_info(
+    core: RobotBatch, i: int, trigger_distance: float, clipped_actions: int
+) -> dict[str, Any]:
+    """Robot ``i``'s ``info`` without ``is_success`` (what a reset returns, and a step's base)."""
+    row = core.out[i]
+    values = row.tolist()
+    info: dict[str, Any] = {
+        key: values[column] if width == 0 else row[column : column + width].copy()
+        for key, column, width in _FLOAT_COLUMNS
+    }
+    info["collision"] = bool(values[OUT.COLLISION])
+    info["proximity_triggered"] = bool(float(core.proximity[i, 0]) < trigger_distance)
+    info["action_clipped"] = bool(values[OUT.CLIPPED])
+    info["clipped_actions"] = clipped_actions
+    for key, column in _REWARD_COLUMNS:
+        info[key] = values[column]
+    return info
+
+
+def robot_step_info(
+    core: RobotBatch,
+    i: int,
+    trigger_distance: float,
+    collided: bool,
+    clipped_actions: int,
+    diverged: dict[int, str],
+) -> dict[str, Any]:
+    """Robot ``i``'s ``info`` after a step: ``is_success`` so far, and a divergence's reason."""
+    info = robot_info(core, i, trigger_distance, clipped_actions)
+    info["is_success"] = not (collided or i in diverged)
+    if i in diverged:
+        info["physics_diverged"] = diverged[i]
+    return info
+
+
+def batched_step_info(
+    core: RobotBatch,
+    trigger_distance: float,
+    collided: NDArray[np.bool_],
+    clipped_actions: NDArray[np.int64],
+    diverged: dict[int, str],
+    resets: dict[int, dict[str, Any]],
+) -> dict[str, Any]:
+    """Every robot's step ``info`` as Gymnasium's dict of arrays with ``_key`` masks.
+
+    Robots in ``resets`` (reset in this step) get their reset ``info`` instead, which has no
+    ``is_success``: as :func:`~bubblerob_env.vector.collate_infos` collates it.
+    """
+    out = core.out
+    n = out.shape[0]
+    everywhere = np.ones(n, dtype=bool)
+    info: dict[str, Any] = {}
+    for key, column, width in _FLOAT_COLUMNS:
+        info[key] = out[:, column].copy() if width == 0 else out[:, column : column + width].copy()
+    info["collision"] = out[:, OUT.COLLISION] != 0.0
+    info["proximity_triggered"] = core.proximity[:, 0].astype(np.float64) < trigger_distance
+    info["action_clipped"] = out[:, OUT.CLIPPED] != 0.0
+    info["clipped_actions"] = clipped_actions.copy()
+    for key, column in _REWARD_COLUMNS:
+        info[key] = out[:, column].copy()
+    info["is_success"] = ~collided
+    for i, reset_info in resets.items():
+        for key, value in reset_info.items():
+            info[key][i] = value
+    success_known = everywhere.copy()
+    success_known[list(resets)] = False
+    info["is_success"] = info["is_success"] & success_known
+    for i in diverged:
+        info["is_success"][i] = False
+    masks = {key: everywhere for key in info}
+    masks["is_success"] = success_known
+    if diverged:
+        reasons = np.full(n, "", dtype=object)
+        present = np.zeros(n, dtype=bool)
+        for i, reason in diverged.items():
+            reasons[i], present[i] = reason, True
+        info["physics_diverged"], masks["physics_diverged"] = reasons, present
+    return {
+        part: value
+        for key in info
+        for part, value in ((key, info[key]), (f"_{key}", masks[key].copy()))
+    }
