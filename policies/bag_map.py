@@ -34,7 +34,11 @@ from bubblerob_env.mapping import (
     occupied_iou,
 )
 
-__all__ = ["MapResult", "add_subcommands", "map_bag", "map_png"]
+__all__ = ["MapError", "MapResult", "add_subcommands", "map_bag", "map_png"]
+
+
+class MapError(ValueError):
+    """The bag cannot be mapped as asked (no episode metadata, no such episode, ...)."""
 
 
 class MapResult:
@@ -62,13 +66,24 @@ def _stamp(header: Any) -> int:
 def map_bag(
     path: str | Path, episode: int = 0, resolution: float = DEFAULT_RESOLUTION
 ) -> MapResult:
-    """Map episode ``episode`` (its index in the bag) of the bag at ``path``."""
+    """Map episode ``episode`` (its index in the bag) of the bag at ``path``.
+
+    Raises:
+        MapError: The bag holds no episode metadata or no episode ``episode``, or its metadata
+            does not make an env.
+        OSError: Not a bag, or a damaged one (``CorruptBagError``).
+    """
     from bubblerob_env.ros.readback.summary import bag_root, find_episodes, open_reader
 
     with open_reader(bag_root(path)) as reader:
         _, episodes = find_episodes(reader)
         if not episodes:
-            raise SystemExit(f"{path}: no episode metadata in the bag")
+            raise MapError(f"{path} holds no bubblerob episode metadata: nothing to map")
+        if isinstance(episode, bool) or not 0 <= episode < len(episodes):
+            raise MapError(
+                f"--episode must be an episode index from 0 to {len(episodes) - 1} (the bag "
+                f"holds {len(episodes)}), got {episode!r}"
+            )
         meta = episodes[episode]
         start = int(meta["start_time_ns"])
         end = int(episodes[episode + 1]["start_time_ns"]) if episode + 1 < len(episodes) else None
@@ -131,7 +146,14 @@ def _grid(message: Any, resolution: float) -> Grid | None:
 
 def _simulated(meta: dict[str, Any], resolution: float) -> Grid:
     """The ground truth of the episode ``meta`` describes, from its env re-created and reset."""
-    env = gym.make(meta["env_id"], **{**(meta.get("env_kwargs") or {}), "render_mode": None})
+    try:
+        kwargs = {**(meta.get("env_kwargs") or {}), "render_mode": None}
+        env = gym.make(meta["env_id"], **kwargs)
+    except (gym.error.Error, KeyError, TypeError, ValueError) as error:
+        raise MapError(
+            f"episode {meta.get('episode')}'s env cannot be made again from the bag's metadata "
+            f"({type(error).__name__}: {error})"
+        ) from None
     try:
         env.reset(seed=meta.get("seed"), options=meta.get("options"))
         return episode_grid(env, resolution)
@@ -163,11 +185,24 @@ def map_png(result: MapResult, out: str | Path, scale: int = 4) -> Path:
 def _run(args: argparse.Namespace) -> int:
     try:
         resolution = check_resolution(args.resolution)
+        if args.episode < 0:
+            raise MapError(f"--episode must be an episode index >= 0, got {args.episode}")
+        if Path(args.out).is_dir():
+            raise MapError(f"--out {args.out} is a directory: name the PNG file to write")
     except ValueError as error:
         print(f"bubblerob map: {error}", file=sys.stderr)
         return 2
-    result = map_bag(args.bag, args.episode, resolution)
-    out = map_png(result, args.out)
+    try:
+        result = map_bag(args.bag, args.episode, resolution)
+    except (OSError, MapError) as error:
+        print(f"bubblerob map: {error}", file=sys.stderr)
+        return 2
+    try:
+        out = map_png(result, args.out)
+    except (OSError, ValueError) as error:  # imageio: ValueError for an unknown extension
+        reason = error.strerror if isinstance(error, OSError) and error.strerror else error
+        print(f"bubblerob map: cannot write --out {args.out}: {reason}", file=sys.stderr)
+        return 1
     print(f"ground truth: {result.truth_source}")
     print(f"scans: {result.scans}")
     print(f"IoU of occupied cells (observed cells): {result.iou:.3f}")

@@ -22,7 +22,10 @@ from bubblerob_env.ros.readback.replay import ReplayError, replay_bag
 from bubblerob_env.ros.readback.summary import read_summary
 from bubblerob_env.ros.recorder import RosBagRecorder
 
-__all__ = ["add_subcommands"]
+__all__ = ["MAX_SEED", "add_subcommands"]
+
+MAX_SEED = 2**63 - 1
+"""Largest seed ``reset`` takes here (NumPy seeds are ints >= 0; the bag's metadata keeps int64)."""
 
 
 def add_subcommands(subparsers: Any) -> None:
@@ -104,9 +107,27 @@ def _load_policy(name: str, env: gym.Env[Any, Any], seed: int) -> Any:
     return load_policy(name, env=env, seed=seed)
 
 
-def _record(args: argparse.Namespace) -> int:
+def _record_usage_error(args: argparse.Namespace) -> str | None:
+    """What is wrong with ``record``'s arguments, in one line, or ``None``."""
     if args.episodes < 1:
-        print("bubblerob record: --episodes must be at least 1", file=sys.stderr)
+        return f"--episodes must be at least 1, got {args.episodes}"
+    last = MAX_SEED - args.episodes + 1
+    if not 0 <= args.seed <= last:
+        return f"--seed must be from 0 to {last} (episode k: seed + k), got {args.seed}"
+    if args.max_steps is not None and args.max_steps < 1:
+        return f"--max-steps must be at least 1, got {args.max_steps}"
+    if args.namespace:
+        try:
+            topics_preset(args.topics, args.namespace)
+        except ValueError as error:
+            return f"--namespace: {error}"
+    return None
+
+
+def _record(args: argparse.Namespace) -> int:
+    problem = _record_usage_error(args)
+    if problem is not None:
+        print(f"bubblerob record: {problem}", file=sys.stderr)
         return 2
     kwargs: dict[str, Any] = {"camera": True} if args.camera else {}
     if args.max_steps is not None:
@@ -235,6 +256,11 @@ def _utc(ns: int) -> str:
 
 
 def _replay(args: argparse.Namespace) -> int:
+    if args.episodes is not None and args.episodes < 1:
+        print(
+            f"bubblerob replay: --episodes must be at least 1, got {args.episodes}", file=sys.stderr
+        )
+        return 2
     try:
         report = replay_bag(args.bag, max_episodes=args.episodes)
     except (ReplayError, OSError) as error:

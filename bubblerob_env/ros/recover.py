@@ -7,6 +7,10 @@ the same format and distro from the complete episodes' messages, byte for byte, 
 summary a recorder writes, then moves the unfinished original aside (``PATH.orig``) and the new
 bag into its place. The messages of the episode that was cut short are left out (they are still
 in the original).
+
+A damaged bag (a failed CRC, a chunk that does not decompress: finished or not) is *salvaged*: the
+complete episodes before the damage go into a new bag beside it, ``NAME.recovered`` (``.bag``),
+and the original is not touched. So is a lone ``.mcap``/``.db3`` file named among other files.
 """
 
 from __future__ import annotations
@@ -20,7 +24,9 @@ from typing import Any
 from bubblerob_env.ros.bags.lock import BagLock
 from bubblerob_env.ros.bags.sinks import open_bag, remove_bag
 from bubblerob_env.ros.messages.topics import LATCHED_TOPICS
-from bubblerob_env.ros.readback.summary import bag_root, find_episodes, open_reader
+from bubblerob_env.ros.readback.layout import bag_root, is_finished, storage_file
+from bubblerob_env.ros.readback.scan import CorruptBagError
+from bubblerob_env.ros.readback.summary import find_episodes, open_reader
 from bubblerob_env.ros.readback.unfinished import UnfinishedReader, read_unfinished
 from bubblerob_env.ros.recorder import EPISODES_KEY, RECORDING_KEY
 
@@ -43,18 +49,23 @@ class RecoverReport:
     original: Path
     episodes: int
     messages: int
+    damage: str | None = None
+    """Where the original is damaged (the episodes before it were salvaged), or ``None``."""
 
     def __str__(self) -> str:
-        return (
-            f"recovered {self.episodes} complete episode(s), {self.messages} messages into "
-            f"{self.path}; the unfinished original is at {self.original}"
-        )
+        done = f"{self.episodes} complete episode(s), {self.messages} messages into {self.path}"
+        if self.damage is not None:
+            return (
+                f"salvaged {done} (those before the damage: {self.damage}); the original is "
+                f"untouched at {self.original}"
+            )
+        if self.original == self.path.with_name(self.path.name + ".orig"):
+            return f"recovered {done}; the unfinished original is at {self.original}"
+        return f"recovered {done}; the unfinished original is untouched at {self.original}"
 
 
-def _format(root: Path) -> str:
-    if root.suffix == ".bag":
-        return "ros1"
-    return "mcap" if any(root.glob("*.mcap")) else "sqlite3"
+def _format(file: Path) -> str:
+    return {".bag": "ros1", ".mcap": "mcap", ".db3": "sqlite3"}[file.suffix]
 
 
 def _latched(episodes: list[dict[str, Any]]) -> set[str]:
@@ -86,37 +97,75 @@ def _write(reader: UnfinishedReader, target: Path, fmt: str, episodes: list[dict
     return reader.message_count
 
 
+def _damage(root: Path) -> str | None:
+    """Where the bag at ``root`` is damaged (every message read through), or ``None``."""
+    try:
+        with open_reader(root) as reader:
+            for _ in reader.messages():
+                pass
+    except CorruptBagError as error:
+        return error.where
+    return None
+
+
+def _beside(root: Path) -> Path:
+    """Where a bag recovered from ``root`` goes when the original stays where it is."""
+    if root.suffix in (".bag", ".mcap", ".db3"):
+        stem = root.with_suffix("")
+        return stem.with_name(stem.name + ".recovered" + (".bag" if root.suffix == ".bag" else ""))
+    return root.with_name(root.name + ".recovered")
+
+
 def recover_bag(path: str | Path) -> RecoverReport:
-    """Finish the unfinished bag at ``path`` in place (see the module docstring).
+    """Finish the unfinished bag at ``path``, or salvage a damaged one (see the module docstring).
 
     Raises:
-        RecoverError: The bag is finished already, holds no complete episode, is being written,
-            or ``PATH.orig`` exists.
+        RecoverError: The bag is finished and whole, holds no complete episode (before the
+            damage), is being written, or the path the new bag would take exists.
         OSError: Not a bag, or the new one cannot be written.
     """
     root = bag_root(path)
-    with open_reader(root) as reader:
-        if not getattr(reader, "unfinished", False):
-            raise RecoverError(f"{root} is a finished bag: nothing to recover")
+    finished = is_finished(root)
+    damage = _damage(root) if finished else None
+    if finished and damage is None:
+        raise RecoverError(f"{root} is a finished bag and reads whole: nothing to recover")
     lock = BagLock(root)  # no recorder may still be writing it
     try:
-        reader = read_unfinished(root)
+        reader = read_unfinished(root, salvage=True)
+        damage = reader.damage or damage
         _, episodes = find_episodes(reader)
         if not episodes:
-            raise RecoverError(f"{root} holds no complete episode: nothing to recover")
-        original = root.with_name(root.name + ".orig")
-        if original.exists():
-            raise RecoverError(f"{original} exists: move it away first")
-        fmt = _format(root)
-        work = root.with_name(f".{root.name}.recovering")  # beside it: the same file system
-        if work.exists():
-            remove_bag(work)
-        work.mkdir()
-        target = work / root.name
-        messages = _write(reader, target, fmt, episodes)
-        os.replace(root, original)
-        os.replace(target, root)
-        work.rmdir()
+            before = " before the damage" if damage else ""
+            raise RecoverError(f"{root} holds no complete episode{before}: nothing to recover")
+        in_place = damage is None and (root.is_dir() or root.suffix == ".bag")
+        final = root if in_place else _beside(root)
+        original = root.with_name(root.name + ".orig") if in_place else root
+        for taken in (original, final) if in_place else (final,):
+            if taken != root and (taken.exists() or taken.is_symlink()):
+                raise RecoverError(f"{taken} exists: move it away first")
+        _write_beside(reader, root, final, episodes, in_place)
     finally:
         lock.release()
-    return RecoverReport(root, original, len(episodes), messages)
+    return RecoverReport(final, original, len(episodes), reader.message_count, damage)
+
+
+def _write_beside(
+    reader: UnfinishedReader, root: Path, final: Path, episodes: list[dict[str, Any]], swap: bool
+) -> None:
+    """Write the new bag in a work folder beside ``root``, then move it to ``final``.
+
+    With ``swap``, ``root`` is moved to ``root.orig`` first.
+    """
+    fmt = _format(storage_file(root))
+    work = root.with_name(f".{root.name}.recovering")  # beside it: the same file system
+    if work.exists():
+        remove_bag(work)
+    work.mkdir()
+    try:
+        target = work / final.name
+        _write(reader, target, fmt, episodes)
+        if swap:
+            os.replace(root, root.with_name(root.name + ".orig"))
+        os.replace(target, final)
+    finally:
+        remove_bag(work)

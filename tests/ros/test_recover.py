@@ -72,5 +72,5 @@ def test_recover_finishes_a_killed_recording(tmp_path, capsys, fmt, distro):
         result = run_debian("/usr/bin/rosbag", "check", str(bag))
         assert result.returncode == 0 and "does not need any migrations" in result.stdout
     assert cli.main(["recover", str(bag)]) == 2  # finished now
-    assert "is a finished bag: nothing to recover" in capsys.readouterr().err
+    assert "is a finished bag and reads whole: nothing to recover" in capsys.readouterr().err
     assert len(read_all(bag)["/cmd_vel"]) == 60

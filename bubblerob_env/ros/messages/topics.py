@@ -9,6 +9,7 @@ namespace prefixes every relative-looking name except the global ones (``/tf``, 
 from __future__ import annotations
 
 import dataclasses
+import re
 from dataclasses import dataclass
 
 __all__ = [
@@ -17,6 +18,7 @@ __all__ = [
     "MSGTYPES",
     "PRESETS",
     "Topics",
+    "check_ros_name",
     "namespace_prefix",
     "topics_preset",
 ]
@@ -49,6 +51,29 @@ LATCHED_TOPICS = ("tf_static", "episode", "map")
 
 GLOBAL_TOPICS = ("tf", "tf_static", "clock")
 """Keys whose names a namespace does not change (tf and the clock are shared by all robots)."""
+
+
+_TOKEN = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
+
+
+def check_ros_name(label: str, name: object) -> str:
+    """A topic name or namespace that both ROS 1 and ROS 2 accept; ``ValueError`` otherwise.
+
+    The rules both share (ROS 1 graph resource names, ROS 2 topic names): tokens of letters,
+    digits and underscores that start with a letter, separated by single slashes (one leading slash
+    allowed, none trailing), and no repeated underscores (ROS 2). Substitutions (``{node}``) and
+    private names (``~``) are not names a recorder can write.
+    """
+    text = name if isinstance(name, str) else ""
+    tokens = text[1:].split("/") if text.startswith("/") else text.split("/")
+    ok = bool(text) and all(_TOKEN.fullmatch(t) and "__" not in t for t in tokens)
+    if not ok:
+        raise ValueError(
+            f"{label} {name!r} is not a valid ROS name: use letters, digits and '_' in "
+            "'/'-separated parts that each start with a letter (e.g. 'robot_2/scan'), with no "
+            "'//', '__' or trailing '/'"
+        )
+    return text
 
 
 def namespace_prefix(namespace: str) -> str:
@@ -96,8 +121,12 @@ class Topics:
             name = getattr(self, key)
             if name is not None and (not isinstance(name, str) or not name.strip("/")):
                 raise ValueError(f"topic {key!r} needs a non-empty name or None, got {name!r}")
+            if name is not None:
+                check_ros_name(f"topic {key!r}:", name)
         if self.namespace and not self.namespace.strip("/"):
             raise ValueError(f"namespace must name something, got {self.namespace!r}")
+        if self.namespace:  # "/robot2/" as "robot2" (namespace_prefix strips the slashes)
+            check_ros_name("namespace", self.namespace.strip("/"))
         if self.action is None or self.episode is None:
             raise ValueError(
                 "the 'action' and 'episode' topics cannot be left out: replay needs them"

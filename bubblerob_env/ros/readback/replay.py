@@ -22,6 +22,7 @@ from bubblerob_env.ros.fastpath.framing import Record
 from bubblerob_env.ros.fastpath.serializer import FrameSerializer
 from bubblerob_env.ros.messages.distros import deserialize
 from bubblerob_env.ros.messages.topics import MSGTYPES, Topics
+from bubblerob_env.ros.readback.scan import CorruptBagError
 from bubblerob_env.ros.readback.summary import bag_root, find_episodes, open_reader
 from bubblerob_env.specs import EnvSpecs
 
@@ -119,6 +120,7 @@ class _Episode:
     """Recorded messages of one episode, per topic, in time order."""
 
     def __init__(self, reader: Any, start: int, stop: int | None, topics: set[str]) -> None:
+        self.path = getattr(reader, "path", None) or "the bag"
         connections = [c for c in reader.connections if c.topic in topics]
         self.messages: dict[str, list[tuple[int, bytes]]] = {t: [] for t in topics}
         for connection, stamp, raw in reader.messages(
@@ -132,11 +134,41 @@ def _make_env(meta: dict[str, Any]) -> gym.Env[Any, Any]:
         raise ReplayError("the bag's metadata has no env id: record with an env made by gym.make")
     kwargs = dict(meta.get("env_kwargs") or {})
     kwargs["render_mode"] = None
-    return gym.make(meta["env_id"], max_episode_steps=meta.get("max_episode_steps"), **kwargs)
+    try:
+        return gym.make(meta["env_id"], max_episode_steps=meta.get("max_episode_steps"), **kwargs)
+    except (gym.error.Error, TypeError, ValueError) as error:
+        raise ReplayError(
+            f"episode {meta.get('episode')}'s env {meta['env_id']} cannot be made again from "
+            f"the bag's metadata: {error}"
+        ) from None
+
+
+def _serializer(env: gym.Env[Any, Any], meta: dict[str, Any]) -> FrameSerializer:
+    try:
+        return FrameSerializer(EnvSpecs.from_env(env), meta["distro"], Topics(**meta["topics"]))
+    except (KeyError, TypeError, ValueError) as error:
+        raise ReplayError(
+            f"episode {meta.get('episode')}'s metadata names no usable distro and topics "
+            f"({type(error).__name__}: {error})"
+        ) from None
 
 
 def replay_bag(path: str | Path, max_episodes: int | None = None) -> ReplayReport:
-    """Replay the bag at ``path`` (see the module docstring); stops at the first divergence."""
+    """Replay the bag at ``path`` (see the module docstring); stops at the first divergence.
+
+    Args:
+        path: The bag (see :func:`~bubblerob_env.ros.readback.layout.bag_root`).
+        max_episodes: Replay only the first this many episodes (>= 1); default: all.
+
+    Raises:
+        ValueError: ``max_episodes`` is not an int >= 1.
+        ReplayError: The bag holds no episode metadata, or its metadata is unusable.
+        OSError: Not a bag (``BagLayoutError``), or a damaged one (``CorruptBagError``).
+    """
+    if max_episodes is not None and (
+        not isinstance(max_episodes, int) or isinstance(max_episodes, bool) or max_episodes < 1
+    ):
+        raise ValueError(f"episodes to replay must be an int >= 1, got {max_episodes!r}")
     root = bag_root(path)
     episodes_done = steps = compared = 0
     with open_reader(root) as reader:
@@ -157,9 +189,7 @@ def replay_bag(path: str | Path, max_episodes: int | None = None) -> ReplayRepor
                     if env is not None:
                         env.close()
                     env, env_key = _make_env(meta), key
-                serializer = FrameSerializer(
-                    EnvSpecs.from_env(env), meta["distro"], Topics(**meta["topics"])
-                )
+                serializer = _serializer(env, meta)
                 stop = episodes[index + 1]["start_time_ns"] if index + 1 < len(episodes) else None
                 per_frame = {name for name, _, latched in serializer.topics() if not latched}
                 recorded = _Episode(reader, meta["start_time_ns"], stop, per_frame)
@@ -180,10 +210,16 @@ def _replay_episode(
 ) -> tuple[int, int, Divergence | None]:
     """``(steps, messages compared, first divergence)`` of one episode."""
     decode = _decoder(serializer)
-    actions = [
-        np.asarray(decode(raw, MSGTYPES["action"]).data, dtype=np.float64)
-        for _, raw in recorded.messages[serializer.names["action"]]
-    ]
+    actions = []
+    for stamp, raw in recorded.messages[serializer.names["action"]]:
+        try:
+            action = np.asarray(decode(raw, MSGTYPES["action"]).data, dtype=np.float64)
+        except Exception as error:  # noqa: BLE001 - damaged bytes fail in many ways
+            raise CorruptBagError(
+                f"{recorded.path}: episode {meta['episode']}'s action at {stamp} ns does not "
+                f"deserialize ({error})"
+            ) from None
+        actions.append(action)
     cursor = {topic: 0 for topic in recorded.messages}
     compared = 0
 

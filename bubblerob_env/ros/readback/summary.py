@@ -17,13 +17,24 @@ from typing import Any
 
 from rosbags.highlevel import AnyReader
 
-from bubblerob_env.ros.readback.unfinished import read_unfinished
+from bubblerob_env.ros.readback.layout import (
+    BagLayoutError,
+    bag_root,
+    is_finished,
+    storage_file,
+)
+from bubblerob_env.ros.readback.mcap_scan import check_mcap_crcs
+from bubblerob_env.ros.readback.scan import CorruptBagError
+from bubblerob_env.ros.readback.unfinished import read_unfinished, scan_bag
 
 __all__ = [
+    "BagLayoutError",
     "BagSummary",
+    "CorruptBagError",
     "TopicSummary",
     "bag_root",
     "find_episodes",
+    "locate_damage",
     "open_reader",
     "read_summary",
 ]
@@ -76,47 +87,93 @@ class BagSummary:
         }
 
 
-def bag_root(path: str | Path) -> Path:
-    """The path ``rosbags`` opens: a ROS 2 bag's directory even if given its storage file."""
-    path = Path(path)
-    if not path.exists():
-        raise FileNotFoundError(f"no bag at {path}")
-    if path.is_file() and path.suffix in (".mcap", ".db3"):
-        return path.parent
-    return path
+class _CheckedReader:
+    """An ``AnyReader`` whose read errors are :class:`CorruptBagError` naming the file and where."""
+
+    unfinished = False
+
+    def __init__(self, reader: Any, root: Path) -> None:
+        self._reader, self.path = reader, root
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._reader, name)
+
+    def messages(self, *args: Any, **kwargs: Any) -> Iterator[tuple[Any, int, bytes]]:
+        """``AnyReader.messages``."""
+        try:
+            yield from self._reader.messages(*args, **kwargs)
+        except Exception as error:  # noqa: BLE001 - rosbags' errors vary with the damage
+            raise CorruptBagError(locate_damage(self.path, error)) from None
+
+    def deserialize(self, raw: bytes, msgtype: str) -> Any:
+        """``AnyReader.deserialize``."""
+        try:
+            return self._reader.deserialize(raw, msgtype)
+        except Exception as error:  # noqa: BLE001 - damaged bytes fail in many ways
+            raise CorruptBagError(
+                f"{self.path}: a {msgtype} message does not deserialize ({error})"
+            ) from None
+
+
+def locate_damage(root: Path, error: BaseException) -> str:
+    """Where the bag at ``root`` is damaged, in words (file and byte offset when found)."""
+    try:
+        file = storage_file(root)
+        if file.suffix == ".mcap":
+            found = check_mcap_crcs(file) or scan_bag(root)[1].damage
+        elif file.suffix == ".bag":
+            found = scan_bag(root)[1].damage
+        else:
+            found = None
+    except OSError as scan_error:
+        found = str(scan_error)
+    return found or f"{root}: {type(error).__name__}: {error}"
+
+
+def _cut_short_in_its_index(root: Path) -> bool:
+    """A finished ROS 1 bag whose file ends inside its index: its data is whole."""
+    if root.suffix != ".bag":
+        return False
+    scan = scan_bag(root)[1]
+    return scan.damage is None and scan.cut_short
 
 
 @contextmanager
 def open_reader(root: Path) -> Iterator[Any]:
-    """The bag at ``root``, opened for reading: a ``rosbags`` ``AnyReader``.
+    """The bag at ``root`` (from :func:`bag_root`), opened for reading.
 
-    For a bag that was never finished (no ``metadata.yaml``, no MCAP summary, no ROS 1 index):
+    A ``rosbags`` ``AnyReader`` whose errors are :class:`CorruptBagError`.
+
+    For a bag that was never finished (no ``metadata.yaml``, no MCAP footer, no ROS 1 index):
     an :class:`~bubblerob_env.ros.readback.unfinished.UnfinishedReader` of its complete episodes.
 
     Raises:
         OSError: ``root`` is not a bag (the message says why in one line).
+        CorruptBagError: It is damaged (a finished bag that does not read, a failed CRC).
     """
-    reader: Any
+    if not is_finished(root):
+        yield read_unfinished(root)
+        return
+    file = storage_file(root)
+    damage = check_mcap_crcs(file) if file.suffix == ".mcap" else None
+    if damage is not None:
+        raise CorruptBagError(damage)
+    reader = AnyReader([root])
     try:
-        reader = AnyReader([root])
         reader.open()
-    except Exception:  # noqa: BLE001 - rosbags' errors vary: no metadata, no index, cut short
-        reader = read_unfinished(root)  # raises OSError for what is no bag at all
+    except Exception as error:  # noqa: BLE001 - rosbags' errors vary: index, header, summary
+        if _cut_short_in_its_index(root):
+            yield read_unfinished(root)
+            return
+        raise CorruptBagError(locate_damage(root, error)) from None
     try:
-        yield reader
+        yield _CheckedReader(reader, root)
     finally:
-        if not getattr(reader, "unfinished", False):
-            reader.close()
+        reader.close()
 
 
 def _storage(root: Path) -> str:
-    if root.suffix == ".bag":
-        return "ros1"
-    if any(root.glob("*.mcap")):
-        return "mcap"
-    if any(root.glob("*.db3")):
-        return "sqlite3"
-    return "unknown"
+    return {".bag": "ros1", ".mcap": "mcap", ".db3": "sqlite3"}[storage_file(root).suffix]
 
 
 def find_episodes(reader: Any) -> tuple[str | None, list[dict[str, Any]]]:
@@ -124,13 +181,18 @@ def find_episodes(reader: Any) -> tuple[str | None, list[dict[str, Any]]]:
     for connection in reader.connections:
         if connection.msgtype != _STRING:
             continue
-        episodes = []
-        for conn, _, raw in reader.messages(connections=[connection]):
+        episodes: list[dict[str, Any]] = []
+        for conn, stamp, raw in reader.messages(connections=[connection]):
             try:
                 data = json.loads(reader.deserialize(raw, conn.msgtype).data)
-            except (ValueError, AttributeError):
-                break
+            except (ValueError, AttributeError, CorruptBagError):
+                data = None
             if not isinstance(data, dict) or "start_time_ns" not in data or "episode" not in data:
+                if episodes:  # this topic holds episode metadata: one that does not read is damage
+                    where = getattr(reader, "path", None) or "the bag"
+                    raise CorruptBagError(
+                        f"{where}: the episode metadata on {conn.topic} at {stamp} ns is damaged"
+                    )
                 break
             episodes.append(data)
         if episodes:

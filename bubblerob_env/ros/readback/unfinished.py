@@ -23,13 +23,14 @@ from pathlib import Path
 from typing import Any
 
 from bubblerob_env.ros.messages.distros import deserialize
-from bubblerob_env.ros.readback.ros1_scan import read_ros1_records
+from bubblerob_env.ros.readback.layout import storage_file
+from bubblerob_env.ros.readback.mcap_scan import scan_mcap
+from bubblerob_env.ros.readback.ros1_scan import scan_ros1
+from bubblerob_env.ros.readback.scan import CorruptBagError, Message, Scan
 
-__all__ = ["UnfinishedReader", "read_unfinished"]
+__all__ = ["UnfinishedReader", "read_unfinished", "scan_bag"]
 
 _STRING = "std_msgs/msg/String"
-Message = tuple[int, int, bytes]
-"""``(connection id, log time ns, serialised message)``."""
 
 
 @dataclass(frozen=True)
@@ -47,9 +48,19 @@ class UnfinishedReader:
 
     unfinished = True
 
-    def __init__(self, distro: str, topics: dict[int, tuple[str, str]], messages: list[Message]):
+    def __init__(
+        self,
+        distro: str,
+        topics: dict[int, tuple[str, str]],
+        messages: list[Message],
+        path: Path | None = None,
+    ) -> None:
         self.distro = distro
-        messages = sorted(messages, key=lambda m: m[1])  # stable: file order within a stamp
+        self.path = path
+        self.damage: str | None = None
+        """Where the bag is damaged, when it was read up to there (salvaged), else ``None``."""
+        # Sorted stably: file order within a stamp. A message on no known connection is dropped.
+        messages = sorted((m for m in messages if m[0] in topics), key=lambda m: m[1])
         self._topics = topics
         self.found_episodes = 0
         """Episodes begun in the bag, the unfinished last one included."""
@@ -94,6 +105,15 @@ class UnfinishedReader:
             ):
                 yield by_id[cid], stamp, raw
 
+    def _flag(self, raw: bytes, cid: int, stamp: int) -> bool:
+        topic, msgtype = self._topics[cid]
+        try:
+            return bool(self.deserialize(raw, msgtype).data)
+        except Exception as error:  # noqa: BLE001 - damaged bytes fail in many ways
+            raise CorruptBagError(
+                f"{self.path}: the {topic} message at {stamp} ns does not deserialize ({error})"
+            ) from None
+
     def _complete_episodes(self, messages: list[Message]) -> list[Message]:
         """``messages`` up to the end of the last episode that ended (the rest is cut off).
 
@@ -123,37 +143,13 @@ class UnfinishedReader:
         }
         for cid, stamp, raw in messages:
             ended = stamp > last_start and self._topics[cid][0] in flags
-            if ended and bool(self.deserialize(raw, self._topics[cid][1]).data):
+            if ended and bool(self._flag(raw, cid, stamp)):
                 return [m for m in messages if m[1] <= stamp]
         return [m for m in messages if m[1] < last_start]
 
 
-def _read_mcap(path: Path) -> tuple[str, dict[int, tuple[str, str]], list[Message]]:
-    from mcap.records import Channel, Schema
-    from mcap.records import Message as McapMessage
-    from mcap.stream_reader import StreamReader
-
-    schemas: dict[int, str] = {}
-    topics: dict[int, tuple[str, str]] = {}
-    messages: list[Message] = []
-    with path.open("rb") as stream:
-        if stream.read(8) != b"\x89MCAP0\r\n":
-            raise OSError(f"{path} is not an MCAP file (no MCAP magic)")
-        stream.seek(0)
-        try:
-            for record in StreamReader(stream, validate_crcs=True).records:
-                if isinstance(record, Schema):
-                    schemas[record.id] = record.name
-                elif isinstance(record, Channel):
-                    topics[record.id] = (record.topic, schemas.get(record.schema_id, ""))
-                elif isinstance(record, McapMessage):
-                    messages.append((record.channel_id, record.log_time, bytes(record.data)))
-        except Exception:  # noqa: BLE001 - the file ends in the middle of a record: stop there
-            pass
-    return "jazzy", topics, messages
-
-
-def _read_db3(path: Path) -> tuple[str, dict[int, tuple[str, str]], list[Message]]:
+def _read_db3(path: Path, scan: Scan) -> str:
+    """Read the committed rows of a ``.db3`` into ``scan``; its distro."""
     with tempfile.TemporaryDirectory() as tmp:  # SQLite rolls back the copy, not the bag
         copy = Path(tmp) / path.name
         for suffix in ("", "-journal", "-wal"):
@@ -162,41 +158,66 @@ def _read_db3(path: Path) -> tuple[str, dict[int, tuple[str, str]], list[Message
                 shutil.copyfile(source, copy.with_name(copy.name + suffix))
         db = sqlite3.connect(copy)
         try:
-            return _read_rows(db)
+            return _read_rows(db, scan)
         except sqlite3.Error as error:
-            raise OSError(f"{path} is not a rosbag2 sqlite3 file: {error}") from None
+            if not scan.topics:  # not even its topics table reads
+                raise OSError(f"{path} is not a rosbag2 sqlite3 file: {error}") from None
+            scan.damage = f"{path}: SQLite cannot read it past row {len(scan.messages)} ({error})"
+            return "jazzy"
         finally:
             db.close()
 
 
-def _read_rows(db: sqlite3.Connection) -> tuple[str, dict[int, tuple[str, str]], list[Message]]:
-    topics = {
-        int(i): (str(name), str(msgtype))
-        for i, name, msgtype in db.execute("SELECT id, name, type FROM topics")
-    }
-    rows = db.execute("SELECT topic_id, timestamp, data FROM messages ORDER BY id")
-    messages = [(int(t), int(s), bytes(d)) for t, s, d in rows]
+def _read_rows(db: sqlite3.Connection, scan: Scan) -> str:
+    """Topics, then messages row by row (up to a damaged row), into ``scan``; the distro."""
     distro = "jazzy"
     try:  # Jazzy's schema table names the distro; Humble's bags have none
         (found,) = db.execute("SELECT ros_distro FROM schema").fetchone() or ("",)
         distro = "humble" if found == "humble" else "jazzy"
     except sqlite3.Error:
         distro = "humble"
-    return distro, topics, messages
+    scan.topics = {
+        int(i): (str(name), str(msgtype))
+        for i, name, msgtype in db.execute("SELECT id, name, type FROM topics")
+    }
+    rows = db.execute("SELECT topic_id, timestamp, data FROM messages ORDER BY id")
+    while True:  # one at a time: the rows before a damaged page are kept
+        row = rows.fetchone()
+        if row is None:
+            return distro
+        topic_id, stamp, data = row
+        if topic_id in scan.topics:
+            scan.messages.append((int(topic_id), int(stamp), bytes(data)))
 
 
-def read_unfinished(root: Path) -> UnfinishedReader:
-    """An :class:`UnfinishedReader` of the bag at ``root`` (ROS 1 file or ROS 2 directory).
+def scan_bag(root: Path) -> tuple[str, Scan]:
+    """``(distro, scan)`` of the bag at ``root`` read in file order (see :func:`bag_root`).
 
     Raises:
         OSError: Nothing readable there (not a bag of a format we write).
     """
-    if root.is_file() and root.suffix == ".bag":
-        topics, messages = read_ros1_records(root)
-        return UnfinishedReader("noetic", topics, messages)
-    for pattern, read in (("*.mcap", _read_mcap), ("*.db3", _read_db3)):
-        files = sorted(root.glob(pattern)) if root.is_dir() else []
-        if files:
-            distro, topics, messages = read(files[0])
-            return UnfinishedReader(distro, topics, messages)
-    raise OSError(f"{root} is not a bag: no .bag file, .mcap or .db3 there")
+    file = storage_file(root)
+    if file.suffix == ".bag":
+        return "noetic", scan_ros1(file)
+    if file.suffix == ".mcap":
+        return "jazzy", scan_mcap(file)
+    if file.suffix == ".db3":
+        scan = Scan()
+        return _read_db3(file, scan), scan
+    raise OSError(f"{root} is not a bag: no .bag, .mcap or .db3 file")
+
+
+def read_unfinished(root: Path, salvage: bool = False) -> UnfinishedReader:
+    """An :class:`UnfinishedReader` of the bag at ``root`` (ROS 1 file or ROS 2 folder or file).
+
+    Raises:
+        OSError: Nothing readable there (not a bag of a format we write).
+        CorruptBagError: A record before the end is damaged (unless ``salvage``: then the
+            complete episodes before the damage are read, and ``damage`` says where it is).
+    """
+    distro, scan = scan_bag(root)
+    if scan.damage is not None and not salvage:
+        raise CorruptBagError(scan.damage)
+    reader = UnfinishedReader(distro, scan.topics, scan.messages, root)
+    reader.damage = scan.damage
+    return reader
