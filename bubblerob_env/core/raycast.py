@@ -247,8 +247,10 @@ def cast_prisms(
                     span += _TWO_PI
                 offset = (a_lo - angle_min) % _TWO_PI
                 first = int(math.floor(offset / increment)) - 1
-                count = min(nray, int(math.ceil(span / increment)) + 3)
-                if not full_circle:
+                count = int(math.ceil(span / increment)) + 3
+                if full_circle:
+                    count = min(count, nray)  # a whole turn: every ray once
+                else:
                     second = int(math.floor((offset - _TWO_PI) / increment)) - 1
         is_box = geom_type[g] == GEOM_BOX
         if full_circle or not cull:
