@@ -4,14 +4,26 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from bubblerob_env import names
 from bubblerob_env.arena import ROBOT_RADIUS
 
 __all__ = [
+    "MAX_ARENA_SIZE",
     "MAX_IMAGE_SIZE",
+    "MAX_LASER_RAYS",
     "MAX_OBSTACLES",
+    "MAX_PHYSICS_SUBSTEPS",
     "MAX_PHYSICS_TIMESTEP",
+    "MAX_SENSOR_RANGE",
+    "MAX_SPEED",
+    "MAX_WEIGHT",
+    "check_bool",
+    "check_bounded",
     "check_choice",
     "check_env_arguments",
     "check_finite",
@@ -19,6 +31,7 @@ __all__ = [
     "check_int_range",
     "check_positive",
     "check_range_pair",
+    "check_scene",
     "check_start_pose",
     "unexpected_kwargs_error",
 ]
@@ -31,6 +44,22 @@ MAX_OBSTACLES = 256
 """Most obstacles per episode: each is a pre-built slot, and 100,000 slots take minutes to build."""
 MAX_IMAGE_SIZE = 4096
 """Largest camera or render image side in pixels; the offscreen framebuffer is sized to fit."""
+MAX_PHYSICS_SUBSTEPS = 10_000
+"""Most MuJoCo steps per control step: more makes one ``step`` take seconds (a seeming hang)."""
+MAX_SPEED = 1e6
+"""Largest ``max_wheel_speed`` (rad/s), ``max_linear_speed`` (m/s) and ``max_angular_speed``
+(rad/s). The motors' force limit decides long before (the robot drives the same from 100 rad/s
+up); beyond it the wheel-speed arithmetic overflows (``max_linear_speed=1e308`` gave NaN)."""
+MAX_ARENA_SIZE = 10_000.0
+"""Largest ``arena_size`` (m). MuJoCo resets a simulation whose positions pass 1e10 m (1e12
+truncated every episode at its first step); an episode (50 s) crosses some 20 m."""
+MAX_SENSOR_RANGE = 10_000.0
+"""Longest laser or proximity range (m): beyond any real sensor; ranges are float32 (ROS
+``LaserScan``, the observation), which keep millimetres up to here (1e300 did not fit at all)."""
+MAX_LASER_RAYS = 100_000
+"""Most laser rays per scan (real scanners give a few thousand); memory and time grow with it."""
+MAX_WEIGHT = 1e6
+"""Largest magnitude of a reward weight or the collision penalty: rewards stay finite."""
 
 
 def unexpected_kwargs_error(owner: str, unknown: Sequence[str], valid: Sequence[str]) -> TypeError:
@@ -50,7 +79,25 @@ def check_choice(label: str, value: object, allowed: Sequence[object]) -> None:
 
 
 def _is_number(value: object) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
+        value, (bool, np.bool_)
+    )
+
+
+def check_bool(label: str, value: object) -> bool:
+    """A real ``bool`` (or NumPy's): ``camera="no"`` is not false, it is a mistake."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{label} must be True or False, got {value!r}")
+    return bool(value)
+
+
+def check_bounded(label: str, value: object, low: float, high: float, unit: str = "") -> float:
+    """A finite number (not a bool) with ``low <= value <= high``."""
+    if not (_is_number(value) and math.isfinite(value) and low <= value <= high):  # type: ignore[arg-type,operator]
+        raise ValueError(
+            f"{label} must be a finite number from {low:g} to {high:g}{unit}, got {value!r}"
+        )
+    return float(value)  # type: ignore[arg-type]
 
 
 def check_finite(label: str, value: object) -> float:
@@ -124,6 +171,98 @@ def check_start_pose(
     return (x, y, yaw)
 
 
+def check_scene(xml_file: object) -> None:
+    """A scene file that MuJoCo parses and that holds the robot (every name the env uses).
+
+    Only parsed here (no compile), so a scene without the robot is one line, not an
+    ``AttributeError`` from deep in the model building.
+    """
+    import mujoco
+
+    if not isinstance(xml_file, (str, Path)) or not Path(xml_file).is_file():
+        raise ValueError(f"xml_file must be the path of an MJCF scene file, got {xml_file!r}")
+    try:
+        spec = mujoco.MjSpec.from_file(str(xml_file))
+    except ValueError as error:
+        first = str(error).strip().splitlines()[0] if str(error).strip() else "unreadable"
+        raise ValueError(
+            f"xml_file {xml_file} is not an MJCF scene MuJoCo reads: {first}"
+        ) from None
+    lookups = {
+        "body": spec.body,
+        "joint": spec.joint,
+        "actuator": spec.actuator,
+        "site": spec.site,
+        "camera": spec.camera,
+        "sensor": spec.sensor,
+        "geom": spec.geom,
+    }
+    missing = [
+        f"{kind} {name!r}"
+        for kind, wanted in names.REQUIRED_NAMES.items()
+        for name in wanted
+        if lookups[kind](name) is None
+    ]
+    if spec.find_default(names.OBSTACLE_CLASS) is None:
+        missing.append(f"default class {names.OBSTACLE_CLASS!r}")
+    if missing:
+        raise ValueError(
+            f"xml_file {xml_file} is not a BubbleRob scene: it lacks {', '.join(missing[:6])}"
+            f"{' and more' if len(missing) > 6 else ''} (include bubblerob.xml and common.xml "
+            "from bubblerob_env/assets, as assets/arena.xml does)"
+        )
+
+
+def _check_speeds(args: Mapping[str, Any]) -> None:
+    for label in ("max_wheel_speed", "max_linear_speed", "max_angular_speed"):
+        value = args[label]
+        if label != "max_wheel_speed" and value is None:
+            continue  # the default: what the wheels can do
+        if not (_is_number(value) and math.isfinite(value) and 0 < value <= MAX_SPEED):
+            default = "" if label == "max_wheel_speed" else " (or None: the wheels' limit)"
+            raise ValueError(
+                f"{label} must be a finite number > 0 and <= {MAX_SPEED:g}{default}, got {value!r}"
+            )
+
+
+def _check_sensors(args: Mapping[str, Any]) -> None:
+    """Types and ranges; the sensor specs check how the values relate (min < max, fov)."""
+    check_int_range("laser_num_rays", args["laser_num_rays"], 0, MAX_LASER_RAYS)
+    for label in ("laser_fov", "laser_range_min", "laser_noise_std", "proximity_trigger_distance"):
+        check_finite(label, args[label])
+    for label in ("laser_range_max", "proximity_range_max"):
+        if not check_bounded(label, args[label], 0.0, MAX_SENSOR_RANGE, " m") > 0:
+            raise ValueError(f"{label} must be > 0 m, got {args[label]!r}")
+    for label in ("camera", "camera_shadows"):
+        check_bool(label, args[label])
+    for label in ("render_width", "render_height"):
+        check_image_size(label, args[label])
+    for label in ("camera_width", "camera_height"):
+        if args[label] is not None:
+            check_image_size(label, args[label])
+
+
+def _check_arena(args: Mapping[str, Any]) -> None:
+    arena_size = check_bounded("arena_size", args["arena_size"], 0.0, MAX_ARENA_SIZE, " m")
+    clearance = check_finite("start_clearance", args["start_clearance"])
+    room = arena_size / 2.0 - ROBOT_RADIUS
+    if room <= 0:
+        raise ValueError(
+            f"arena_size must be > {2 * ROBOT_RADIUS:g} m (the robot's diameter), "
+            f"got {args['arena_size']!r}"
+        )
+    if not 0.0 <= clearance < room:
+        raise ValueError(
+            f"start_clearance must be >= 0 m and leave the robot (radius {ROBOT_RADIUS} m) room "
+            f"in the arena: < {max(room, 0.0):.3f} m for arena_size {arena_size:g} m, "
+            f"got {args['start_clearance']!r}"
+        )
+    check_range_pair("num_obstacles", args["num_obstacles"], 0, MAX_OBSTACLES, ints=True)
+    check_range_pair("obstacle_size", args["obstacle_size"], 1e-3, math.inf, ints=False)
+    if args["xml_file"] is not None:
+        check_scene(args["xml_file"])
+
+
 def check_env_arguments(
     args: Mapping[str, Any],
     action_types: Sequence[str],
@@ -132,14 +271,19 @@ def check_env_arguments(
 ) -> None:
     """Every ``BubbleRobEnv`` keyword argument, by name: the first bad one raises ``ValueError``.
 
-    The sensor specs (``LaserSpec``, ``ProximitySpec``, ``CameraSpec``) check their own fields
-    when the env builds them; ``start_pose`` is checked by :func:`check_start_pose`.
+    The sensor specs (``LaserSpec``, ``ProximitySpec``, ``CameraSpec``) check how their fields
+    relate when the env builds them; ``start_pose`` is checked by :func:`check_start_pose`.
     """
     check_choice("action_type", args["action_type"], action_types)
     check_choice("proximity_radiation_type", args["proximity_radiation_type"], radiation_types)
     check_choice("render_mode", args["render_mode"], (None, *render_modes))
     control_timestep = check_positive("control_timestep", args["control_timestep"])
     substeps = check_int_range("physics_substeps", args["physics_substeps"], 1)
+    if substeps > MAX_PHYSICS_SUBSTEPS:
+        raise ValueError(
+            f"physics_substeps must be <= {MAX_PHYSICS_SUBSTEPS} (more makes one step take "
+            f"seconds), got {substeps}"
+        )
     if control_timestep / substeps > MAX_PHYSICS_TIMESTEP:
         raise ValueError(
             f"control_timestep / physics_substeps = {control_timestep} / {substeps} "
@@ -147,26 +291,19 @@ def check_env_arguments(
             f"{MAX_PHYSICS_TIMESTEP} s: use physics_substeps >= "
             f"{math.ceil(control_timestep / MAX_PHYSICS_TIMESTEP - 1e-9)}"
         )
-    check_range_pair("num_obstacles", args["num_obstacles"], 0, MAX_OBSTACLES, ints=True)
-    check_range_pair("obstacle_size", args["obstacle_size"], 1e-3, math.inf, ints=False)
-    check_int_range("laser_num_rays", args["laser_num_rays"], 0)
-    for label in ("max_wheel_speed", "arena_size"):
-        check_positive(label, args[label])
+    _check_speeds(args)
+    _check_sensors(args)
     for label in (
         "forward_reward_weight",
         "spin_cost_weight",
         "clearance_cost_weight",
         "collision_penalty",
-        "start_clearance",
     ):
-        check_finite(label, args[label])
-    for label in ("render_width", "render_height"):
-        check_image_size(label, args[label])
-    for label in ("camera_width", "camera_height"):
-        if args[label] is not None:
-            check_image_size(label, args[label])
+        check_bounded(label, args[label], -MAX_WEIGHT, MAX_WEIGHT)
+    check_bool("terminate_on_collision", args["terminate_on_collision"])
     if not check_finite("clearance_distance", args["clearance_distance"]) > ROBOT_RADIUS:
         raise ValueError(
             f"clearance_distance must be > the robot radius {ROBOT_RADIUS} m, "
             f"got {args['clearance_distance']!r}"
         )
+    _check_arena(args)
