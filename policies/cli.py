@@ -107,6 +107,8 @@ def _run_evaluate(args: argparse.Namespace) -> int:
     ]
     print(format_table(results, markdown=args.markdown))
     if args.video is not None:
-        frames = record_video(video_policy, args.video, args.seed, args.env, args.env_kwargs)
+        frames = record_video(
+            video_policy, args.video, args.seed, args.env, args.env_kwargs, progress=True
+        )
         print(f"wrote {args.video}: policy {video_policy}, seed {args.seed}, {frames} frames")
     return 0

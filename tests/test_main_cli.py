@@ -113,6 +113,7 @@ def test_evaluate_video_names_its_policy(tmp_path):
     )
     assert result.returncode == 0, result.stderr
     assert f"wrote {video}: policy reactive, seed 1000, 21 frames" in result.stdout
+    assert "video reactive -> reactive.gif" in result.stderr  # its progress bar
     import imageio.v3 as iio
 
     assert iio.imread(video, index=None).shape[0] == 21
