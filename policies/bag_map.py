@@ -33,6 +33,7 @@ from bubblerob_env.mapping import (
     episode_grid,
     occupied_iou,
 )
+from bubblerob_env.png import write_png  # stdlib zlib: the [ros] extra brings no image library
 
 __all__ = ["MapError", "MapResult", "add_subcommands", "map_bag", "map_png"]
 
@@ -171,14 +172,12 @@ def _image(grid: Grid) -> NDArray[np.uint8]:
 
 def map_png(result: MapResult, out: str | Path, scale: int = 4) -> Path:
     """Write the mapped grid (left) beside the ground truth (right) as a PNG."""
-    import imageio.v3 as iio
-
     left, right = _image(result.mapped), _image(result.truth)
     gap = np.full((left.shape[0], 4), 96, dtype=np.uint8)
     picture = np.hstack([left, gap, right]).repeat(scale, axis=0).repeat(scale, axis=1)
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    iio.imwrite(out, picture)
+    write_png(out, picture)
     return out
 
 
