@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -72,18 +73,45 @@ def _check_policies(command: str, names: list[str], env_id: str, env_kwargs: Any
     from policies.loading import load_policy
 
     for name in names:
-        env = gym.make(env_id, **(env_kwargs or {}))
+        try:
+            env = gym.make(env_id, **(env_kwargs or {}))
+        except (gym.error.Error, TypeError, ValueError) as error:  # a usage error: exit 2
+            print(f"bubblerob {command}: --env {env_id} --env-kwargs: {error}", file=sys.stderr)
+            raise SystemExit(2) from None
         try:
             load_policy(name, env)
         except (ValueError, TypeError, OSError) as error:
             raise SystemExit(f"bubblerob {command}: {error}") from None
+        except Exception as error:  # noqa: BLE001 - a damaged .zip or .onnx: zipfile, onnxruntime
+            raise SystemExit(
+                f"bubblerob {command}: cannot load the policy file {name}: "
+                f"{type(error).__name__}: {str(error).strip().splitlines()[0]}"
+            ) from None
         finally:
             env.close()
+
+
+def _usage(command: str, args: argparse.Namespace) -> None:
+    """Exit 2 with one line if ``--seed``, ``--episodes`` or ``--video``'s folder is unusable."""
+    problem = None
+    if args.episodes < 1:
+        problem = f"--episodes must be >= 1, got {args.episodes}"
+    elif not 0 <= args.seed <= 2**32 - 1 - args.episodes:
+        problem = f"--seed must be from 0 to {2**32 - 1 - args.episodes}, got {args.seed}"
+    elif getattr(args, "video", None) is not None:
+        try:
+            Path(args.video).resolve().parent.mkdir(parents=True, exist_ok=True)
+        except OSError as error:
+            problem = f"--video {args.video}: cannot create its folder ({error.strerror or error})"
+    if problem is not None:
+        print(f"bubblerob {command}: {problem}", file=sys.stderr)
+        raise SystemExit(2)
 
 
 def _run_demo(args: argparse.Namespace) -> int:
     from policies.demo import main_demo
 
+    _usage("demo", args)
     _check_policies("demo", [args.policy], "BubbleRob-v0", None)
     try:
         return main_demo(args.policy, args.episodes, args.seed, args.out, not args.no_video)
@@ -92,8 +120,7 @@ def _run_demo(args: argparse.Namespace) -> int:
 
 
 def _run_evaluate(args: argparse.Namespace) -> int:
-    if args.episodes < 1:
-        raise SystemExit(f"--episodes must be >= 1, got {args.episodes}")
+    _usage("evaluate", args)
     video_policy = args.video_policy or args.policy[0]
     if args.video is not None:
         if args.video.suffix.lower() not in (".mp4", ".gif"):
