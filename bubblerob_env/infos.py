@@ -19,21 +19,22 @@ __all__ = ["batched_step_info", "robot_info", "robot_step_info"]
 
 # (key, first column, width): width 0 is a float scalar, a width an array of that many floats.
 _FLOAT_COLUMNS = (
-    ("sim_time", OUT.SIM_TIME, 0),
-    ("x", OUT.POSITION, 0),
-    ("y", OUT.POSITION + 1, 0),
-    ("yaw", OUT.YAW, 0),
-    ("position", OUT.POSITION, 3),
-    ("quaternion_wxyz", OUT.QUATERNION, 4),
-    ("body_twist", OUT.TWIST, 6),
-    ("wheel_speeds", OUT.WHEEL_SPEEDS, 2),
-    ("wheel_command", OUT.WHEEL_COMMAND, 2),
+    ("sim_time", int(OUT.SIM_TIME), 0),
+    ("x", int(OUT.POSITION), 0),
+    ("y", int(OUT.POSITION + 1), 0),
+    ("yaw", int(OUT.YAW), 0),
+    ("position", int(OUT.POSITION), 3),
+    ("quaternion_wxyz", int(OUT.QUATERNION), 4),
+    ("body_twist", int(OUT.TWIST), 6),
+    ("wheel_speeds", int(OUT.WHEEL_SPEEDS), 2),
+    ("wheel_command", int(OUT.WHEEL_COMMAND), 2),
 )
+_COLLISION, _CLIPPED = int(OUT.COLLISION), int(OUT.CLIPPED)  # plain ints index faster
 _REWARD_COLUMNS = (
-    ("reward_forward", OUT.FORWARD),
-    ("reward_spin", OUT.SPIN),
-    ("reward_clearance", OUT.CLEARANCE),
-    ("reward_collision", OUT.COLLISION_COST),
+    ("reward_forward", int(OUT.FORWARD)),
+    ("reward_spin", int(OUT.SPIN)),
+    ("reward_clearance", int(OUT.CLEARANCE)),
+    ("reward_collision", int(OUT.COLLISION_COST)),
 )
 
 
@@ -47,9 +48,9 @@ def robot_info(
         key: values[column] if width == 0 else row[column : column + width].copy()
         for key, column, width in _FLOAT_COLUMNS
     }
-    info["collision"] = bool(values[OUT.COLLISION])
+    info["collision"] = values[_COLLISION] != 0.0
     info["proximity_triggered"] = bool(float(core.proximity[i, 0]) < trigger_distance)
-    info["action_clipped"] = bool(values[OUT.CLIPPED])
+    info["action_clipped"] = values[_CLIPPED] != 0.0
     info["clipped_actions"] = clipped_actions
     for key, column in _REWARD_COLUMNS:
         info[key] = values[column]
