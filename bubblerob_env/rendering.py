@@ -9,7 +9,13 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["HumanViewer", "OverheadRenderer", "display_available", "scene_option"]
+__all__ = [
+    "HumanViewer",
+    "OverheadRenderer",
+    "display_available",
+    "render_modes_here",
+    "scene_option",
+]
 
 _HIT_RGBA = np.array([1.0, 0.1, 0.1, 1.0], dtype=np.float32)
 _RAY_RGBA = np.array([1.0, 0.6, 0.1, 0.25], dtype=np.float32)
@@ -22,6 +28,16 @@ def display_available() -> bool:
     if not sys.platform.startswith("linux"):
         return True
     return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+def render_modes_here(modes: list[str]) -> list[str]:
+    """``modes`` without ``"human"`` where no window can be opened: an env's own ``metadata``.
+
+    Gymnasium's ``check_env`` makes the env once in each mode its ``metadata`` lists; headless,
+    an env that listed ``"human"`` failed it with default arguments. ``gym.make`` checks the
+    class's modes, so ``render_mode="human"`` asked for headless still raises its clear error.
+    """
+    return [mode for mode in modes if mode != "human" or display_available()]
 
 
 def scene_option() -> mujoco.MjvOption:
