@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
+from train.checks import check_hyperparams, check_train_arguments, parse_overrides
 
 __all__ = [
     "ALGOS",
@@ -227,6 +228,7 @@ def train(
     if n_envs is not None:
         config["n_envs"] = n_envs
     config["seed"] = seed
+    check_hyperparams(algo, config)
     out.mkdir(parents=True, exist_ok=True)
     (out / "config.yml").write_text(yaml.safe_dump({env_id: config}, sort_keys=False))
     (out / "command.txt").write_text((command or _default_command(algo, env_id, out)) + "\n")
@@ -440,9 +442,18 @@ def run(args: argparse.Namespace, command: str, program: str) -> int:
     from bubblerob_env.extras import require_extra
 
     require_extra("train", program)
-    import yaml
 
     out = args.out or Path("runs") / f"{args.algo}-{args.env}-{args.seed}"
+    try:
+        check_train_arguments(args)
+        overrides = parse_overrides(args.set)
+        check_hyperparams(args.algo, {**load_hyperparams(args.algo, args.env), **overrides})
+        out.mkdir(parents=True, exist_ok=True)
+    except (ValueError, OSError) as error:
+        reason = error.strerror if isinstance(error, OSError) and error.strerror else error
+        where = f"--out {out}: " if isinstance(error, OSError) else ""
+        print(f"{program}: {where}{reason}", file=sys.stderr)
+        return 2
     final = train(
         args.algo,
         args.env,
@@ -454,7 +465,7 @@ def run(args: argparse.Namespace, command: str, program: str) -> int:
         eval_episodes=args.eval_episodes,
         progress_bar=not args.no_progress,
         command=command,
-        overrides={key: yaml.safe_load(value) for key, value in args.set},
+        overrides=overrides,
         vec_env=args.vec_env,
         torch_threads=args.torch_threads,
     )

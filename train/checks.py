@@ -1,0 +1,120 @@
+"""Argument and hyperparameter checks of ``bubblerob train``: one line naming the bad value.
+
+SB3 takes ``n_steps=-1`` or ``n_envs=0`` to an ``AssertionError`` or an ``IndexError`` deep in its
+constructors, ``--timesteps 0`` to a saved model that never learned, and ``--eval-freq 0`` to an
+evaluation after every step (a run that seems to hang). These are refused before anything starts.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from typing import Any
+
+__all__ = [
+    "MAX_SEED",
+    "TrainArgumentError",
+    "check_hyperparams",
+    "check_train_arguments",
+    "parse_overrides",
+]
+
+MAX_SEED = 2**32 - 1
+"""Largest seed: SB3 seeds NumPy's legacy generator, which takes 32-bit seeds."""
+
+_INTS_FROM_ONE = ("n_timesteps", "n_envs", "n_steps", "n_epochs", "buffer_size", "frame_stack")
+_INTS_FROM_ZERO = ("learning_starts",)
+_FRACTIONS = ("gamma", "gae_lambda", "tau")  # in (0, 1]
+_POSITIVE = ("max_grad_norm",)
+_SCHEDULED = ("learning_rate", "clip_range")  # > 0, or an rl-zoo schedule string ("lin_3e-4")
+
+
+class TrainArgumentError(ValueError):
+    """A command-line option or hyperparameter that cannot train (the message names it)."""
+
+
+def _is_int(value: object) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _is_number(value: object) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def check_train_arguments(args: argparse.Namespace) -> None:
+    """The options of ``python -m train`` / ``bubblerob train`` that need no SB3 to check.
+
+    Raises:
+        TrainArgumentError: The first bad option.
+    """
+    rules = (
+        ("--timesteps", args.timesteps, 1, True),
+        ("--n-envs", args.n_envs, 1, True),
+        ("--torch-threads", args.torch_threads, 1, False),
+        ("--eval-freq", args.eval_freq, 1, False),
+        ("--eval-episodes", args.eval_episodes, 1, False),
+    )
+    for option, value, low, optional in rules:
+        if optional and value is None:
+            continue
+        if not (_is_int(value) and value >= low):
+            raise TrainArgumentError(f"{option} must be an int >= {low}, got {value}")
+    if not (_is_int(args.seed) and 0 <= args.seed <= MAX_SEED):
+        raise TrainArgumentError(f"--seed must be an int from 0 to {MAX_SEED}, got {args.seed}")
+
+
+def check_hyperparams(algo: str, config: dict[str, Any]) -> None:
+    """The YAML hyperparameters after ``--set`` overrides: SB3's own checks, said in one line.
+
+    Raises:
+        TrainArgumentError: The first bad hyperparameter.
+    """
+
+    def bad(key: str, allowed: str) -> TrainArgumentError:
+        return TrainArgumentError(
+            f"hyperparameter {key} must be {allowed}, got {config[key]!r} (--set {key}=...)"
+        )
+
+    for key in _INTS_FROM_ONE:
+        if key in config and not (_is_int(config[key]) and config[key] >= 1):
+            raise bad(key, "an int >= 1")
+    for key in _INTS_FROM_ZERO:
+        if key in config and not (_is_int(config[key]) and config[key] >= 0):
+            raise bad(key, "an int >= 0")
+    for key in _FRACTIONS:
+        if key in config and not (_is_number(config[key]) and 0 < config[key] <= 1):
+            raise bad(key, "a number in (0, 1]")
+    for key in _POSITIVE:
+        if key in config and not (_is_number(config[key]) and config[key] > 0):
+            raise bad(key, "a number > 0")
+    for key in _SCHEDULED:
+        value: Any = config.get(key)
+        if key in config and not (isinstance(value, str) or _is_number(value) and value > 0):
+            raise bad(key, "a number > 0 or a schedule such as 'lin_3e-4'")
+    if "batch_size" in config:
+        low = 2 if algo == "ppo" else 1  # SB3's PPO normalises advantages over a minibatch
+        if not (_is_int(config["batch_size"]) and config["batch_size"] >= low):
+            raise bad("batch_size", f"an int >= {low}")
+    if algo == "ppo" and int(config.get("n_steps", 2)) * int(config.get("n_envs", 1)) < 2:
+        raise TrainArgumentError(
+            f"n_steps * n_envs must be > 1 for PPO, got {config.get('n_steps')} * "
+            f"{config.get('n_envs')}"
+        )
+
+
+def parse_overrides(pairs: list[tuple[str, str]]) -> dict[str, Any]:
+    """``--set KEY=VALUE`` pairs, each value read as YAML.
+
+    Raises:
+        TrainArgumentError: A value that is not YAML.
+    """
+    import yaml
+
+    overrides = {}
+    for key, text in pairs:
+        try:
+            overrides[key] = yaml.safe_load(text)
+        except yaml.YAMLError as error:
+            problem = getattr(error, "problem", None) or "not YAML"
+            raise TrainArgumentError(f"--set {key}={text}: the value is {problem}") from None
+    return overrides
