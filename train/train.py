@@ -447,6 +447,7 @@ def run(args: argparse.Namespace, command: str, program: str) -> int:
     try:
         check_train_arguments(args)
         overrides = parse_overrides(args.set)
+        _reject_project_settings(overrides)
         check_hyperparams(args.algo, {**load_hyperparams(args.algo, args.env), **overrides})
         out.mkdir(parents=True, exist_ok=True)
     except (ValueError, OSError) as error:
