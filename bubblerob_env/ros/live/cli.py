@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import signal
 import sys
@@ -143,6 +144,23 @@ def add_node_subcommand(subparsers: Any) -> None:
     node.set_defaults(handler=_node)
 
 
+def _usage_error(args: argparse.Namespace) -> str | None:
+    """What is wrong with the node's numeric options, in one line, or ``None``."""
+    if not 0 <= args.seed <= 2**63 - 1:
+        return f"--seed must be an int from 0 to {2**63 - 1}, got {args.seed}"
+    for option, value in (("--max-steps", args.max_steps), ("--steps", args.steps)):
+        if value is not None and value < 1:
+            return f"{option} must be at least 1, got {value}"
+    for option, value in (
+        ("--duration", args.duration),
+        ("--master-timeout", args.master_timeout),
+        ("--watchdog", args.watchdog),
+    ):
+        if value is not None and not (math.isfinite(value) and value >= 0):
+            return f"{option} must be a finite number of seconds >= 0, got {value}"
+    return None
+
+
 def _node(args: argparse.Namespace) -> int:
     if args.launch_dir:
         print(LAUNCH_DIR)
@@ -160,6 +178,9 @@ def _node(args: argparse.Namespace) -> int:
         print(f"bubblerob node: {text}", file=sys.stderr)
         return 2
 
+    problem = _usage_error(args)
+    if problem is not None:
+        return fail(problem)
     kwargs: dict[str, Any] = dict(args.env)
     if kwargs.get("action_type", "wheels") != "wheels":
         return fail("the node drives the wheels: action_type must be 'wheels' (cmd_vel is mapped)")
