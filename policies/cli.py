@@ -50,6 +50,12 @@ def add_subcommands(subparsers: Any) -> None:
         "--video-policy",
         help="the policy --video records (default: the first --policy)",
     )
+    parser.add_argument(
+        "--ray",
+        metavar="ADDRESS",
+        help="spread the episodes over Ray tasks: 'local' starts a cluster for this run, "
+        "anything else is ray.init's address ('auto', HOST:PORT); needs the [ray] extra",
+    )
     parser.set_defaults(handler=_run_evaluate)
 
     demo = subparsers.add_parser(
@@ -128,10 +134,15 @@ def _run_evaluate(args: argparse.Namespace) -> int:
         if args.video_policy is not None and args.video_policy not in args.policy:
             raise SystemExit(f"--video-policy {args.video_policy} is not one of --policy")
     _check_policies("evaluate", list(args.policy), args.env, args.env_kwargs)
-    results = [
-        evaluate(name, args.episodes, args.seed, args.env, args.env_kwargs, progress=True)
-        for name in args.policy
-    ]
+    if args.ray is not None:
+        from policies.distributed import evaluate_command
+
+        results = evaluate_command(args)
+    else:
+        results = [
+            evaluate(name, args.episodes, args.seed, args.env, args.env_kwargs, progress=True)
+            for name in args.policy
+        ]
     print(format_table(results, markdown=args.markdown))
     if args.video is not None:
         frames = record_video(

@@ -1,0 +1,267 @@
+"""Evaluation and bag recording as Ray tasks: past one machine (the [ray] extra).
+
+Episodes are spread over tasks in chunks of consecutive seeds. A task builds its own env, policy
+and (for recording) :class:`~bubblerob_env.ros.recorder.RosBagRecorder`, runs its seeds in order
+and returns only when they are all done, so Ray's task retries make a killed worker cost one
+chunk's work and never an episode lost or counted twice: the driver takes exactly one result per
+chunk and checks that the seeds it got back are the seeds it asked for.
+
+``address`` is ``"local"`` (start a local cluster for this run and stop it after) or anything
+``ray.init(address=...)`` takes: ``"auto"`` (the cluster ``ray start`` runs on this machine),
+``"HOST:PORT"`` or ``"ray://HOST:10001"`` (Ray Client, needs ``ray[client]``). Every node needs
+this package installed: the tasks import it.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Any
+
+from policies.evaluation import EpisodeStats, EvalResult, run_episode, summarize
+
+__all__ = [
+    "LOCAL",
+    "TASK_RETRIES",
+    "check_address",
+    "evaluate_command",
+    "EvalChunk",
+    "evaluate_chunk",
+    "evaluate_on_ray",
+    "gather",
+    "ray_session",
+    "seed_chunks",
+]
+
+LOCAL = "local"
+"""The ``--ray`` address that starts a local cluster for one run."""
+
+TASK_RETRIES = 3
+"""How often Ray reruns a task whose worker died (killed, out of memory, node lost)."""
+
+CONNECT_TIMEOUT_S = 5.0
+"""How long ``HOST:PORT`` gets to accept a connection before ``--ray`` gives up on it."""
+
+MAX_CHUNK = 10
+"""Most episodes in one task: small enough that a progress bar moves and a retry is cheap."""
+
+CHUNKS_PER_CPU = 4
+"""Tasks per CPU of the cluster, at least: slow and fast chunks even out across workers."""
+
+
+def seed_chunks(first: int, count: int, chunk_size: int) -> list[range]:
+    """Seeds ``first .. first + count - 1`` in consecutive ranges of at most ``chunk_size``."""
+    if count < 1 or chunk_size < 1:
+        raise ValueError(f"count and chunk_size must be >= 1, got {count} and {chunk_size}")
+    return [
+        range(start, min(start + chunk_size, first + count))
+        for start in range(first, first + count, chunk_size)
+    ]
+
+
+def chunk_size_for(episodes: int, cpus: float) -> int:
+    """Episodes per task for ``episodes`` on a cluster of ``cpus`` CPUs (see :data:`MAX_CHUNK`)."""
+    return max(1, min(MAX_CHUNK, math.ceil(episodes / (CHUNKS_PER_CPU * max(1.0, cpus)))))
+
+
+def check_address(address: str) -> None:
+    """One-line ``ValueError``: not an address; ``ConnectionError``: nothing listens there.
+
+    ``ray.init`` would wait two minutes on an address where nothing listens, then exit.
+    """
+    if not address.strip():
+        raise ValueError("--ray needs an address: 'local', 'auto', HOST:PORT or ray://HOST:PORT")
+    if address in (LOCAL, "auto") or address.startswith("ray://"):
+        return
+    host, sep, port = address.rpartition(":")
+    if not sep or not host or not port.isdigit():
+        raise ValueError(
+            f"--ray {address!r} is not an address: use 'local', 'auto', HOST:PORT or "
+            "ray://HOST:PORT"
+        )
+    import socket
+
+    try:
+        socket.create_connection((host, int(port)), timeout=CONNECT_TIMEOUT_S).close()
+    except OSError as error:
+        raise ConnectionError(f"--ray {address}: no Ray cluster answers there ({error})") from None
+
+
+@contextmanager
+def ray_session(address: str, num_cpus: int | None = None) -> Iterator[Any]:
+    """Ray connected to ``address`` for the ``with`` block; yields the ``ray`` module.
+
+    ``"local"`` starts a cluster of ``num_cpus`` CPUs (default: all) and stops it after. A Ray
+    already initialised in this process (a test's cluster, a notebook's) is used as it is and
+    left running.
+    """
+    import ray
+
+    if ray.is_initialized():
+        yield ray
+        return
+    options: dict[str, Any] = {
+        "include_dashboard": False,
+        "log_to_driver": False,  # the tasks' own output would interleave with the table
+        "logging_level": "WARNING",
+    }
+    try:
+        if address == LOCAL:
+            ray.init(address=LOCAL, num_cpus=num_cpus, **options)
+        else:
+            ray.init(address=address, **options)
+    except (ConnectionError, ValueError) as error:  # 'auto' with no cluster, a bad ray:// URL
+        raise ConnectionError(f"--ray {address}: {error}") from None
+    try:
+        yield ray
+    finally:
+        ray.shutdown()
+
+
+@dataclass(frozen=True)
+class EvalChunk:
+    """What one evaluation task returns: its seeds' episodes, in seed order, and where it ran."""
+
+    policy: str
+    seeds: tuple[int, ...]
+    episodes: tuple[EpisodeStats, ...]
+    node_id: str
+
+
+def _node_id() -> str:
+    import ray
+
+    return str(ray.get_runtime_context().get_node_id())
+
+
+def evaluate_chunk(
+    policy_name: str, seeds: Sequence[int], env_id: str, env_kwargs: dict[str, Any]
+) -> EvalChunk:
+    """Run one episode per seed, in order, with one env and one policy (the task's body).
+
+    The same calls as :func:`policies.evaluation.evaluate`, so the same seed gives the same
+    episode.
+    """
+    import gymnasium as gym
+
+    from policies.loading import load_policy
+
+    env = gym.make(env_id, **env_kwargs)
+    try:
+        policy = load_policy(policy_name, env)
+        episodes = tuple(run_episode(env, policy, seed) for seed in seeds)
+    finally:
+        env.close()
+    return EvalChunk(policy_name, tuple(seeds), episodes, _node_id())
+
+
+def gather(
+    ray: Any, refs: Sequence[Any], on_done: Callable[[Any], object], timeout_s: float | None = None
+) -> list[Any]:
+    """Every task's result in submission order, calling ``on_done`` as each one finishes.
+
+    Raises ``TimeoutError`` when ``timeout_s`` passes with tasks still running (they are
+    cancelled); a task that failed past its retries raises its error here.
+    """
+    import time
+
+    deadline = None if timeout_s is None else time.monotonic() + timeout_s
+    pending = list(refs)
+    results: dict[Any, Any] = {}
+    while pending:
+        left = None if deadline is None else max(0.0, deadline - time.monotonic())
+        done, pending = ray.wait(pending, num_returns=1, timeout=left)
+        if not done:
+            for ref in pending:
+                ray.cancel(ref, force=True)
+            raise TimeoutError(f"{len(pending)} Ray task(s) still running after {timeout_s} s")
+        for ref in done:
+            results[ref] = ray.get(ref)
+            on_done(results[ref])
+    return [results[ref] for ref in refs]
+
+
+def _check_seeds(chunks: Sequence[EvalChunk], policy: str, expected: range) -> None:
+    got = [seed for chunk in chunks if chunk.policy == policy for seed in chunk.seeds]
+    if got != list(expected) or any(len(c.seeds) != len(c.episodes) for c in chunks):
+        raise RuntimeError(f"Ray returned seeds {got} for {policy}, expected {list(expected)}")
+
+
+def evaluate_on_ray(
+    policy_names: Sequence[str],
+    episodes: int,
+    seed: int,
+    env_id: str = "BubbleRob-v0",
+    env_kwargs: dict[str, Any] | None = None,
+    *,
+    address: str = LOCAL,
+    chunk_size: int | None = None,
+    num_cpus: int | None = None,
+    progress: bool = False,
+    timeout_s: float | None = None,
+) -> tuple[list[EvalResult], list[EvalChunk]]:
+    """:func:`policies.evaluation.evaluate` for each policy, its episodes spread over Ray tasks.
+
+    Returns the table's rows (equal to the serial ones: the same seeds, episodes summarised in
+    seed order) and the chunks (per-episode results and the node each ran on). ``progress``
+    shows a bar of finished episodes.
+    """
+    from tqdm import tqdm
+
+    seeds = range(seed, seed + episodes)
+    with ray_session(address, num_cpus) as ray:
+        size = chunk_size or chunk_size_for(
+            episodes * len(policy_names), ray.cluster_resources().get("CPU", 1.0)
+        )
+        task = ray.remote(num_cpus=1, max_retries=TASK_RETRIES)(evaluate_chunk)
+        work = [
+            (name, chunk) for name in policy_names for chunk in seed_chunks(seed, episodes, size)
+        ]
+        refs = [
+            task.remote(name, list(chunk), env_id, dict(env_kwargs or {})) for name, chunk in work
+        ]
+        total = episodes * len(policy_names)
+        with tqdm(
+            total=total, unit="episode", desc="evaluate", disable=not progress, file=sys.stderr
+        ) as bar:
+            chunks: list[EvalChunk] = gather(
+                ray, refs, lambda c: bar.update(len(c.seeds)), timeout_s
+            )
+    results = []
+    for name in policy_names:
+        _check_seeds(chunks, name, seeds)
+        stats = [e for chunk in chunks if chunk.policy == name for e in chunk.episodes]
+        results.append(summarize(str(name), stats))
+    return results, chunks
+
+
+@contextmanager
+def command_errors(command: str) -> Iterator[None]:
+    """One line for what goes wrong with ``--ray``; exit 2 (bad address) or 1 (no cluster)."""
+    try:
+        yield
+    except ValueError as error:
+        print(f"bubblerob {command}: {error}", file=sys.stderr)
+        raise SystemExit(2) from None
+    except ConnectionError as error:
+        print(f"bubblerob {command}: {error}", file=sys.stderr)
+        raise SystemExit(1) from None
+
+
+def evaluate_command(args: Any) -> list[EvalResult]:
+    """``bubblerob evaluate --ray ADDRESS``: the table's rows; a bad address exits with one line."""
+    from bubblerob_env.extras import require_extra
+
+    require_extra("ray", "bubblerob evaluate --ray")
+    with command_errors("evaluate"):
+        check_address(args.ray)
+        results, chunks = evaluate_on_ray(
+            args.policy, args.episodes, args.seed, args.env, args.env_kwargs, address=args.ray,
+            progress=True,
+        )  # fmt: skip
+    nodes = len({chunk.node_id for chunk in chunks})
+    print(f"{len(chunks)} Ray tasks on {nodes} node(s)", file=sys.stderr)
+    return results
