@@ -66,6 +66,12 @@ def add_subcommands(subparsers: Any) -> None:
         help="metres per cell of each episode's /map, 0.005 to 1",
     )
     record.add_argument("--no-progress", action="store_true", help="no progress bar")
+    record.add_argument(
+        "--ray",
+        metavar="ADDRESS",
+        help="record as Ray tasks, one bag per task named by its seeds: 'local' starts a "
+        "cluster for this run, anything else is ray.init's address; needs the [ray] extra",
+    )
     record.add_argument("--out", type=Path, required=True, help="directory for the bag")
     record.set_defaults(handler=_record)
 
@@ -129,6 +135,10 @@ def _record(args: argparse.Namespace) -> int:
     if problem is not None:
         print(f"bubblerob record: {problem}", file=sys.stderr)
         return 2
+    if args.ray is not None:  # policies.distributed_record imports Ray; this package does not
+        from policies.distributed_record import record_command
+
+        return record_command(args)
     kwargs: dict[str, Any] = {"camera": True} if args.camera else {}
     if args.max_steps is not None:
         kwargs["max_episode_steps"] = args.max_steps
