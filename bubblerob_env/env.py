@@ -54,7 +54,7 @@ __all__ = ["ACTION_TYPES", "OBS_MODES", "BubbleRobEnv"]
 ACTION_TYPES = ("wheels", "twist")
 OBS_MODES = ("dict", "flat")
 _DEFAULT_CAMERA_SIZE = 64
-_DATA_VIEWS = ("_ctrl", "_sensordata", "_pose", "_warnings", "_core", "_one_robot")  # _bind_views
+_DATA_VIEWS = ("_ctrl", "_sensordata", "_pose", "_warnings", "_core", "_one_robot", "_row")
 # MuJoCo resets the state itself after these: the episode cannot go on.
 _DIVERGENCE_WARNINGS = (
     mujoco.mjtWarning.mjWARN_BADQACC,
@@ -468,16 +468,22 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
             np.concatenate(lows), np.concatenate(highs), dtype=np.float32
         )
 
-    def _bind_views(self) -> None:
+    def _bind_views(self, sensing: bool = True) -> None:
         # Views into self.data and the kernel's addresses of this robot's model and data;
         # rebuilt after unpickling (a copy has new data, and Ray hands back read-only arrays).
         self._ctrl = self.data.ctrl
         self._sensordata = self.data.sensordata
         self._pose = self.data.qpos[self._root_qpos : self._root_qpos + 7]
         self._warnings = self.data.warning.number
-        self._core = RobotBatch([self], self._analytic)
-        self._core.refresh_geoms(0, self.model)
-        self._one_robot = self._core.all_robots
+        if sensing:  # else the caller attaches the env to a batch's buffers (_attach)
+            shared = getattr(self, "_core", None)  # a clone's (see _spawn) shares the tables
+            self._attach(RobotBatch([self], self._analytic, shared.tables if shared else None), 0)
+
+    def _attach(self, core: RobotBatch, row: int) -> None:
+        """Step and observe through row ``row`` of ``core`` (a batch attaches its robots)."""
+        self._core, self._row = core, row
+        self._one_robot = np.array([row], dtype=np.int64)
+        core.refresh_geoms(row, self.model)
 
     def _size_framebuffer(self, *sizes: tuple[int, int]) -> None:
         # Renderers need an offscreen buffer at least as large as their image.
@@ -519,10 +525,10 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
         self._clipped_actions = 0
         self._collided = False
         core = self._core
-        core.refresh_geoms(0, self.model)
+        core.refresh_geoms(self._row, self.model)
         self._draw_noise()
         core.observe(self._one_robot)
-        row = core.out[0]
+        row = core.out[self._row]
         row[OUT.COLLISION] = row[OUT.CLIPPED] = 0.0
         row[OUT.WHEEL_COMMAND : OUT.WHEEL_COMMAND + 2] = 0.0
         row[OUT.REWARD : OUT.COLLISION_COST + 1] = 0.0
@@ -538,14 +544,14 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
         """Apply ``action`` for one control step (see Action Space)."""
         self._check_open("step")
         core = self._core
-        core.actions[0] = self._checked_action(action)
+        core.actions[self._row] = self._checked_action(action)
         self._draw_noise()
         # The kernel does what this method did in Python, with the same arithmetic: step2 then
         # step1 per substep (kinematics, contacts and sensors of the final state), a contact
         # check after every substep (a touch that begins and ends inside one control step is
         # still a collision), the sensors, the reward and its parts.
         core.step(self._one_robot)
-        values = core.out[0].tolist()
+        values = core.out[self._row].tolist()
         collision = values[_COLLISION] != 0.0
         self._clipped_actions += values[_CLIPPED] != 0.0
         diverged = self._diverged() if values[_DIVERGED] else ""
@@ -584,7 +590,8 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
         # Laser noise comes from the episode's generator, one draw per scan, as before.
         spec = self.laser_spec
         if spec is not None and spec.noise_std > 0.0:
-            self._core.noise[0] = self.np_random.normal(0.0, spec.noise_std, size=spec.num_rays)
+            noise = self.np_random.normal(0.0, spec.noise_std, size=spec.num_rays)
+            self._core.noise[self._row] = noise
 
     def _diverged(self) -> str:
         """MuJoCo's divergence warning from this step, or ``""``.
@@ -623,18 +630,17 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
 
         For batches (:mod:`bubblerob_env.vector`): cheaper in time and memory than building or
         deep-copying. Call it on an env that was never reset: the clone copies its model, gets
-        its own data, laser buffers and random generator, and behaves exactly as a new env.
+        its own data and random generator, and behaves exactly as a new env once the batch has
+        attached it to a row of its buffers (:meth:`_attach`).
         """
         clone = copy.copy(self)
         clone.model = copy.copy(self.model)  # resets write obstacle sizes into the model
         clone.data = mujoco.MjData(clone.model)
-        if self.laser_spec is not None:
-            clone._laser = Laser(clone.model, self.laser_spec)
         if self.camera_spec is not None:
             clone._camera = CameraSensor(clone.model, self.camera_spec)
         clone._np_random = clone._np_random_seed = None
         clone.layout = clone._last_laser = None
-        clone._bind_views()
+        clone._bind_views(sensing=False)
         return clone
 
     def _check_open(self, method: str) -> None:
@@ -643,12 +649,12 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
 
     def _observation(self) -> Observation:
         """The kernel's readings of this robot as an observation (copies: buffers are reused)."""
-        core = self._core
+        core, row = self._core, self._row
         obs: dict[str, NDArray[Any]] = {}
         if self.laser_spec is not None:
-            obs["laser"] = self._last_laser = core.laser[0].copy()
-        obs["proximity"] = core.proximity[0].copy()
-        obs["velocity"] = core.velocity[0].copy()
+            obs["laser"] = self._last_laser = core.laser[row].copy()
+        obs["proximity"] = core.proximity[row].copy()
+        obs["velocity"] = core.velocity[row].copy()
         if self._camera is not None:
             obs["camera"] = self._camera(self.model, self.data)
         if self.obs_mode == "flat":
@@ -669,7 +675,7 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
     def _info(self) -> dict[str, Any]:
         """``info`` from the kernel's numbers for this robot."""
         return robot_info(
-            self._core, 0, self.proximity_spec.trigger_distance, self._clipped_actions
+            self._core, self._row, self.proximity_spec.trigger_distance, self._clipped_actions
         )
 
     def render(self) -> NDArray[np.uint8] | None:

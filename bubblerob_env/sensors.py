@@ -264,9 +264,6 @@ class Laser:
         self._local_dirs = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=1)
         self._geomgroup = np.zeros(6, dtype=np.uint8)
         self._geomgroup[names.OBSTACLE_GROUP] = 1
-        self._world_dirs = np.empty(spec.num_rays * 3)
-        self._dist = np.empty(spec.num_rays)
-        self._geomid = np.empty(spec.num_rays, dtype=np.int32)
 
     def __call__(
         self,
@@ -277,22 +274,23 @@ class Laser:
         """Scan once; noise (if the spec has any) is drawn from ``rng``."""
         site = self._site
         rot = data.site_xmat[site].reshape(3, 3)
-        np.matmul(self._local_dirs, rot.T, out=self._world_dirs.reshape(-1, 3))
+        world_dirs = self._local_dirs @ rot.T
+        dist = np.empty(self.spec.num_rays)
         mujoco.mj_multiRay(
             model,
             data,
             data.site_xpos[site],
-            self._world_dirs,
+            world_dirs.reshape(-1),
             self._geomgroup,
             1,
             -1,
-            self._geomid,
-            self._dist,
+            np.empty(self.spec.num_rays, dtype=np.int32),
+            dist,
             None,
             self.spec.num_rays,
             self.spec.range_max,
         )
-        return self.finish(self._dist, rng)
+        return self.finish(dist, rng)
 
     def endpoints(
         self, data: mujoco.MjData, readings: NDArray[np.float32]

@@ -121,7 +121,9 @@ class BubbleRobVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
         self.single_action_space = first.action_space
         self.observation_space = batch_space(first.observation_space, num_envs)
         self.action_space = batch_space(first.action_space, num_envs)
-        self._core = RobotBatch(self.envs, first._analytic)
+        self._core = RobotBatch(self.envs, first._analytic, first._core.tables)
+        for i, env in enumerate(self.envs):  # each robot now senses into the batch's buffers
+            env._attach(self._core, i)
         self._trigger = first.proximity_spec.trigger_distance
         # OpenGL contexts (camera, window) belong to the thread that made them: with them, the
         # calling thread steps every robot (rendering dominates the step then anyway).
@@ -170,9 +172,9 @@ class BubbleRobVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
     ) -> dict[str, Any]:
         """Reset robot ``i`` as ``gym.make``'s env resets; its observation goes into the batch."""
         env = self.envs[i]
-        obs, info = env.reset(seed=seed, options=options)
-        self._core.refresh_geoms(i, env.model)
-        self._store_obs(i, obs)
+        obs, info = env.reset(seed=seed, options=options)  # senses into row i of the batch
+        if isinstance(obs, dict) and "camera" in obs:
+            self._obs_camera[i] = obs["camera"]
         self._elapsed[i] = 0
         self._collided[i] = False
         self._clipped_actions[i] = 0
@@ -338,21 +340,6 @@ class BubbleRobVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
         self._core.step(shares[0])
         for future in futures:
             future.result()
-
-    def _store_obs(self, i: int, obs: Any) -> None:
-        """Put robot ``i``'s reset observation into the kernel's buffers (and the camera's)."""
-        core, env = self._core, self.envs[i]
-        parts = (
-            obs
-            if isinstance(obs, dict)
-            else {key: obs[part] for key, part in env.observation_layout.items()}
-        )
-        if "laser" in parts:
-            core.laser[i] = parts["laser"]
-        core.proximity[i] = parts["proximity"]
-        core.velocity[i] = parts["velocity"]
-        if "camera" in parts:
-            self._obs_camera[i] = parts["camera"]
 
     @property
     def _obs_camera(self) -> NDArray[np.uint8]:

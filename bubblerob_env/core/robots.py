@@ -30,6 +30,7 @@ from bubblerob_env.core.kernel import (
 )
 from bubblerob_env.core.mjabi import data_layout
 from bubblerob_env.core.raycast import GEOM_BOX, GEOM_CYLINDER
+from bubblerob_env.sensors import LaserSpec
 
 if TYPE_CHECKING:
     from bubblerob_env.env import BubbleRobEnv
@@ -40,6 +41,8 @@ LASER_BACKENDS = ("auto", "analytic", "mujoco")
 """``laser_backend`` values: the analytic caster where the scene allows it (``auto``), always
 (``analytic``: an error where it cannot), or MuJoCo's ``mj_multiRay`` (``mujoco``)."""
 _UPRIGHT_TOLERANCE = 1e-9
+Tables = tuple[NDArray[np.uint8], NDArray[np.int32], NDArray[np.float64], NDArray[np.uint8]]
+"""Per geom: is it a wall or obstacle, its type; the rays' local directions; the group mask."""
 _WARNINGS = mujoco.mjtWarning
 
 
@@ -75,7 +78,12 @@ def analytic_unsupported(
 class RobotBatch:
     """Kernel inputs and outputs for ``envs``, robot ``i`` being ``envs[i]``."""
 
-    def __init__(self, envs: Sequence[BubbleRobEnv], analytic: bool) -> None:
+    def __init__(
+        self,
+        envs: Sequence[BubbleRobEnv],
+        analytic: bool,
+        tables: Tables | None = None,
+    ) -> None:
         first = envs[0]
         n = len(envs)
         spec = first.laser_spec
@@ -85,14 +93,8 @@ class RobotBatch:
         self.icfg = _int_settings(first, analytic)
         self.cfg = _float_settings(first)
         model = first.model
-        is_obstacle = (model.geom_group == names.OBSTACLE_GROUP).astype(np.uint8)
-        geomgroup = np.zeros(mujoco.mjNGROUP, dtype=np.uint8)
-        geomgroup[names.OBSTACLE_GROUP] = 1
-        local_dirs = np.zeros((nray, 3))
-        if spec is not None:
-            angles = spec.angles()
-            local_dirs = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=1)
-        self.tables = (is_obstacle, model.geom_type.astype(np.int32), local_dirs, geomgroup)
+        # Read-only tables of the model and the laser: robots with the same settings share them.
+        self.tables = tables if tables is not None else _tables(model, spec)
         self._laser_geoms = laser_geoms(model)
         self.cast_geoms = np.full((n, max(1, self._laser_geoms.size)), -1, dtype=np.int32)
         self.noise = np.zeros((n, nray))
@@ -170,6 +172,18 @@ class RobotBatch:
             self.velocity,
             self.out,
         )
+
+
+def _tables(model: mujoco.MjModel, spec: LaserSpec | None) -> Tables:
+    """``is_obstacle`` and ``geom_type`` per geom, the rays' local directions, the group mask."""
+    is_obstacle = (model.geom_group == names.OBSTACLE_GROUP).astype(np.uint8)
+    geomgroup = np.zeros(mujoco.mjNGROUP, dtype=np.uint8)
+    geomgroup[names.OBSTACLE_GROUP] = 1
+    local_dirs = np.zeros((0, 3))
+    if spec is not None:
+        angles = spec.angles()
+        local_dirs = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=1)
+    return (is_obstacle, model.geom_type.astype(np.int32), local_dirs, geomgroup)
 
 
 def _int_settings(env: BubbleRobEnv, analytic: bool) -> NDArray[np.int64]:
