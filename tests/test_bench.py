@@ -18,6 +18,7 @@ ROOT = Path(__file__).resolve().parents[1]
         ("record_speed.py", ["mcap", "ros1", "sqlite3"]),
         ("train_speed.py", ["HalfCheetah-v5, 1 env (anchor)", "2 envs, SubprocVecEnv"]),
         ("soak.py", ["undetected penetration", "memory growth after warm-up", "PASSED"]),
+        ("fast_core.py", ["BubbleRob batch N=64, 2 threads", "one thread to two", "machine:"]),
         pytest.param(
             "live_speed.py",
             ["| off |", "| 64x64 |", "received msg/s"],
