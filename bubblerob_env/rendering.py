@@ -10,8 +10,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 __all__ = [
+    "ForkedAfterRenderingError",
     "HumanViewer",
     "OverheadRenderer",
+    "check_fork_safe",
     "display_available",
     "render_modes_here",
     "scene_option",
@@ -21,6 +23,46 @@ _HIT_RGBA = np.array([1.0, 0.1, 0.1, 1.0], dtype=np.float32)
 _RAY_RGBA = np.array([1.0, 0.6, 0.1, 0.25], dtype=np.float32)
 _MAX_DRAWN_RAYS = 90  # more lines than this hide the robot under the fan
 _IDENTITY = np.eye(3).reshape(9)
+
+
+class ForkedAfterRenderingError(RuntimeError):
+    """This process was forked from one that had rendered with Mesa: its first frame would hang."""
+
+
+_forked_after_rendering = False
+
+
+def _note_fork_in_child() -> None:
+    """At a fork, in the child: was a Mesa driver loaded in the parent (it rendered)?"""
+    global _forked_after_rendering
+    try:
+        with open("/proc/self/maps") as maps:  # the child's mappings are the parent's
+            _forked_after_rendering = any("/dri/" in line or "libgallium" in line for line in maps)
+    except OSError:
+        _forked_after_rendering = False
+
+
+if sys.platform.startswith("linux"):
+    os.register_at_fork(after_in_child=_note_fork_in_child)
+
+
+def check_fork_safe(what: str) -> None:
+    """Raise :class:`ForkedAfterRenderingError` instead of making a context that would hang.
+
+    Mesa's software renderer (llvmpipe, our headless EGL) renders with threads made when the
+    process first renders; a forked child has none of them, and its first frame waits for them
+    forever (``gym.make_vec(..., vectorization_mode="async")`` forks its workers on Linux). A
+    parent that set ``LP_NUM_THREADS=0`` before it rendered has no such threads: forking is safe.
+    """
+    if not _forked_after_rendering or os.environ.get("LP_NUM_THREADS") == "0":
+        return
+    raise ForkedAfterRenderingError(
+        f"{what} cannot render in this process: it was forked from one that had already "
+        "rendered with Mesa (llvmpipe), whose threads a fork does not copy, so its first frame "
+        "would hang. Start the workers with 'forkserver' or 'spawn' (gym.make_vec(..., "
+        "vectorization_mode='async', vector_kwargs={'context': 'forkserver'}); SB3's "
+        "SubprocVecEnv does by default), or set LP_NUM_THREADS=0 before the parent renders"
+    )
 
 
 def display_available() -> bool:
@@ -51,6 +93,7 @@ class OverheadRenderer:
     """Renders the arena from straight above (+x to the right, +y up) with laser rays and hits."""
 
     def __init__(self, model: mujoco.MjModel, width: int, height: int, view_size: float) -> None:
+        check_fork_safe("render_mode='rgb_array'")
         max_geom = model.ngeom + 2 * 2048 + 100
         self._renderer = mujoco.Renderer(model, height, width, max_geom=max_geom)
         self._renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False

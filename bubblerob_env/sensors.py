@@ -335,7 +335,10 @@ class CameraSensor:
     Shadows and reflections are off unless the spec asks for them: on Mesa's CPU renderer they
     cost about 15x per frame. The OpenGL context is made on the first frame, not here, so an env
     can be built in a parent process that then forks (``AsyncVectorEnv``, SB3's
-    ``SubprocVecEnv``): an EGL context does not survive a fork.
+    ``SubprocVecEnv``): an EGL context does not survive a fork. Nor do Mesa's rendering threads
+    once the parent has rendered anything: a worker forked then raises
+    :class:`~bubblerob_env.rendering.ForkedAfterRenderingError`, naming the fix, instead of
+    hanging on its first frame.
     """
 
     def __init__(self, model: mujoco.MjModel, spec: CameraSpec) -> None:
@@ -363,6 +366,10 @@ class CameraSensor:
         self._option = self._scene_option()
 
     def _make_renderer(self) -> mujoco.Renderer:
+        # A child forked after its parent rendered would hang here: one clear error instead.
+        from bubblerob_env.rendering import check_fork_safe  # rendering imports no sensors
+
+        check_fork_safe("the camera")
         renderer = mujoco.Renderer(self._model, self.spec.height, self.spec.width)
         flags = renderer.scene.flags
         flags[mujoco.mjtRndFlag.mjRND_SHADOW] = self.spec.shadows
