@@ -129,10 +129,8 @@ class BubbleRobVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
         # calling thread steps every robot (rendering dominates the step then anyway).
         uses_gl = first.camera_spec is not None or first.render_mode == "human"
         self.num_threads = 1 if uses_gl else min(threads, num_envs)
-        self._shares = [
-            np.arange(k, num_envs, self.num_threads, dtype=np.int64)
-            for k in range(self.num_threads)
-        ]
+        # Contiguous blocks: no two threads write the same cache lines of the result buffers.
+        self._shares = np.array_split(np.arange(num_envs, dtype=np.int64), self.num_threads)
         self._pool = (
             ThreadPoolExecutor(self.num_threads - 1, thread_name_prefix="bubblerob")
             if self.num_threads > 1

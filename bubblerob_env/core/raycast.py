@@ -29,7 +29,7 @@ _TWO_PI = 2.0 * math.pi
 _INSIDE_TOLERANCE = 1e-9
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True)
 def _ray_quad(a: float, b: float, c: float) -> float:  # pragma: no cover - numba
     det = b * b - a * c
     if det < _MINVAL:
@@ -55,7 +55,7 @@ def _ray_sphere(
     return _ray_quad(a, b, c)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True)
 def _ray_map(
     pos: NDArray[np.float64],
     mat: NDArray[np.float64],
@@ -74,7 +74,7 @@ def _ray_map(
     )
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True)
 def _box_face(
     side: float,
     size_i: float,
@@ -316,7 +316,7 @@ def _cast_window(
             dist[r] = x
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True)
 def _box_faces(
     p0: float,
     p1: float,
@@ -341,7 +341,7 @@ def _box_faces(
     return x
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True)
 def _cylinder_sides(
     p0: float,
     p1: float,
