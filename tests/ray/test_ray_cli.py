@@ -1,0 +1,43 @@
+"""``bubblerob evaluate --ray``: the serial table, and one line for a bad address."""
+
+from __future__ import annotations
+
+import pytest
+from ray_helpers import bubblerob_in_netns, need_netns
+
+from bubblerob_env.cli import main as bubblerob
+
+EVALUATE = [
+    "evaluate", "--policy", "reactive", "--policy", "laser", "--episodes", "4", "--seed", "7",
+    "--env-kwargs", '{"max_episode_steps": 100}',
+]  # fmt: skip
+
+
+def test_evaluate_on_a_local_cluster_prints_the_serial_table(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    need_netns()
+    done = bubblerob_in_netns([*EVALUATE, "--ray", "local"])
+    assert done.returncode == 0, done.stderr
+    assert bubblerob(EVALUATE) == 0
+    serial = capsys.readouterr().out
+    assert done.stdout == serial
+    assert "8/8" in done.stderr  # the bar counted the 2 x 4 episodes
+    assert "Ray tasks on 1 node(s)" in done.stderr
+
+
+@pytest.mark.parametrize(
+    ("address", "code", "message"),
+    [
+        ("nonsense", 2, "--ray 'nonsense' is not an address: use 'local', 'auto', HOST:PORT"),
+        ("", 2, "--ray needs an address"),
+        ("127.0.0.1:1", 1, "--ray 127.0.0.1:1: no Ray cluster answers there"),
+        ("auto", 1, "--ray auto: Could not find any running Ray instance"),
+    ],
+)
+def test_bad_addresses_are_one_line(address: str, code: int, message: str) -> None:
+    need_netns()
+    done = bubblerob_in_netns([*EVALUATE[:3], "--episodes", "1", "--ray", address], timeout_s=60)
+    assert done.returncode == code
+    assert done.stderr.strip().splitlines()[-1].startswith(f"bubblerob evaluate: {message}")
+    assert "Traceback" not in done.stderr
