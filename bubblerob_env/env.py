@@ -35,7 +35,7 @@ from bubblerob_env.core.kernel import OUT
 from bubblerob_env.core.robots import LASER_BACKENDS, RobotBatch, analytic_unsupported
 from bubblerob_env.infos import robot_info
 from bubblerob_env.kinematics import DiffDrive
-from bubblerob_env.rendering import HumanViewer, OverheadRenderer
+from bubblerob_env.rendering import HumanViewer, OverheadRenderer, render_modes_here
 from bubblerob_env.sensors import (
     RADIATION_TYPES,
     CameraSensor,
@@ -298,8 +298,13 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
             (render_width, render_height),
             (camera_width or _DEFAULT_CAMERA_SIZE, camera_height or _DEFAULT_CAMERA_SIZE),
         )
-        # Videos play at real speed for any control step (an instance attribute: per env).
-        self.metadata = {**self.metadata, "render_fps": 1.0 / control_timestep}
+        # Per env: videos play at real speed for any control step, and only the render modes
+        # that work here are listed (Gymnasium's check_env makes the env in each listed mode).
+        self.metadata = {
+            **self.metadata,
+            "render_modes": render_modes_here(self.metadata["render_modes"]),
+            "render_fps": 1.0 / control_timestep,
+        }
         self.model.actuator_ctrlrange[:] = (-max_wheel_speed, max_wheel_speed)
         self.data = mujoco.MjData(self.model)
         self._slots = ObstacleSlots(self.model, self.num_obstacles[1])

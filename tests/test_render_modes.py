@@ -6,8 +6,6 @@ import os
 import subprocess
 import sys
 
-import pytest
-
 from bubblerob_env.rendering import render_modes_here
 
 
@@ -29,9 +27,6 @@ print("checked")
 """
 
 
-@pytest.mark.xfail(
-    strict=True, reason="BubbleRobEnv.metadata must use rendering.render_modes_here (env.py)"
-)
 def test_gymnasium_check_env_passes_headless_with_default_arguments() -> None:
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
     result = subprocess.run(
