@@ -29,5 +29,8 @@ class CorruptBagError(OSError):
     """A bag's bytes are damaged (the message names the file and where)."""
 
     def __init__(self, where: str) -> None:
+        # One line: readers quote whole message definitions in their errors.
+        where = " ".join(where.split())
+        where = where if len(where) <= 300 else where[:297] + "..."
         super().__init__(f"corrupt bag: {where}")
         self.where = where

@@ -24,6 +24,7 @@ from bubblerob_env.ros.readback.layout import (
     storage_file,
 )
 from bubblerob_env.ros.readback.mcap_scan import check_mcap_crcs
+from bubblerob_env.ros.readback.ros1_scan import index_position
 from bubblerob_env.ros.readback.scan import CorruptBagError
 from bubblerob_env.ros.readback.unfinished import read_unfinished, scan_bag
 
@@ -122,7 +123,10 @@ def locate_damage(root: Path, error: BaseException) -> str:
         if file.suffix == ".mcap":
             found = check_mcap_crcs(file) or scan_bag(root)[1].damage
         elif file.suffix == ".bag":
-            found = scan_bag(root)[1].damage
+            found = scan_bag(root)[1].damage or (
+                f"{root}: its index (from byte {index_position(root)}) is damaged: "
+                f"{type(error).__name__}: {error}"
+            )
         else:
             found = None
     except OSError as scan_error:
