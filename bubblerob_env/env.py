@@ -548,6 +548,8 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
     ) -> tuple[Observation, float, bool, bool, dict[str, Any]]:
         """Apply ``action`` for one control step (see Action Space)."""
         self._check_open("step")
+        if self.layout is None:
+            raise RuntimeError("step() called before reset(): reset the env first")
         core = self._core
         core.actions[self._row] = self._checked_action(action)
         self._draw_noise()
@@ -685,6 +687,7 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
 
     def render(self) -> NDArray[np.uint8] | None:
         """``rgb_array``: overhead frame with the laser drawn; ``human``: update the window."""
+        self._check_open("render")
         if self.render_mode == "human":
             if self._viewer is None:
                 self._viewer = HumanViewer(self.model, self.data)

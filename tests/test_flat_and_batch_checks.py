@@ -105,3 +105,16 @@ def test_a_huge_action_is_a_value_error_not_an_overflow():
     env.reset(seed=0)
     with pytest.raises(ValueError, match="action must be 2 finite numbers"):
         env.step([10**400, 0])
+
+
+def test_the_env_class_refuses_step_before_reset_and_render_after_close():
+    from bubblerob_env.env import BubbleRobEnv
+
+    env = BubbleRobEnv(render_mode="rgb_array")
+    with pytest.raises(RuntimeError, match=r"step\(\) called before reset\(\)"):
+        env.step(np.zeros(2, np.float32))
+    env.reset(seed=0)
+    env.step(np.zeros(2, np.float32))
+    env.close()
+    with pytest.raises(RuntimeError, match=r"render\(\) called after close\(\)"):
+        env.render()
