@@ -146,9 +146,18 @@ def _record(args: argparse.Namespace) -> int:
     name = f"bubblerob_{Path(args.policy).stem}_seed{args.seed}"
     try:
         policy = _load_policy(args.policy, env, args.seed)
-    except (ValueError, TypeError) as error:
+    except (ValueError, TypeError, OSError) as error:
         env.close()
         print(f"bubblerob record: {error}", file=sys.stderr)
+        return 2
+    except Exception as error:  # noqa: BLE001 - a damaged .zip or .onnx: zipfile, onnxruntime
+        env.close()
+        first = str(error).strip().splitlines()[0] if str(error).strip() else ""
+        print(
+            f"bubblerob record: cannot load the policy file {args.policy}: "
+            f"{type(error).__name__}: {first}",
+            file=sys.stderr,
+        )
         return 2
     try:
         recorder = RosBagRecorder(
