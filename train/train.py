@@ -428,6 +428,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="override a hyperparameter (YAML value), e.g. --set n_steps=512",
     )
     parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    from train.sweep import add_sweep_arguments  # --ray, --seeds (Ray is imported only to run)
+
+    add_sweep_arguments(parser)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -443,7 +446,8 @@ def run(args: argparse.Namespace, command: str, program: str) -> int:
 
     require_extra("train", program)
 
-    out = args.out or Path("runs") / f"{args.algo}-{args.env}-{args.seed}"
+    sweep = args.ray is not None or args.seeds is not None
+    out = args.out or Path("runs") / f"{args.algo}-{args.env}-{'sweep' if sweep else args.seed}"
     try:
         check_train_arguments(args)
         overrides = parse_overrides(args.set)
@@ -455,6 +459,10 @@ def run(args: argparse.Namespace, command: str, program: str) -> int:
         where = f"--out {out}: " if isinstance(error, OSError) else ""
         print(f"{program}: {where}{reason}", file=sys.stderr)
         return 2
+    if sweep:  # one run per --seeds seed, as Ray tasks
+        from train.sweep import run_sweep
+
+        return run_sweep(args, overrides, out, command, program)
     final = train(
         args.algo,
         args.env,
