@@ -173,8 +173,9 @@ class TopDownView(gym.Wrapper[Any, Any, Any, Any], RecordConstructorArgs):
 
     Whatever the env's own ``render_mode``, this wrapper's is ``"rgb_array"``, so Gymnasium's
     ``RecordVideo`` and our video writers take its frames. The laser drawn is the scan of the last
-    observation (its ``"laser"`` entry): wrap the env before anything that changes the scan, such
-    as :class:`LaserPooling`. Without a laser (or a ``"laser"`` entry), no rays are drawn.
+    observation (its ``"laser"`` entry, or its slice with ``obs_mode="flat"``): wrap the env before
+    anything that changes the scan, such as :class:`LaserPooling`; without a laser or a scan of
+    every ray, no rays are drawn.
 
     Args:
         env: A BubbleRob env or a wrapper of one.
@@ -191,6 +192,9 @@ class TopDownView(gym.Wrapper[Any, Any, Any, Any], RecordConstructorArgs):
         spec = self._renderer.laser_spec
         self._rays = 0 if spec is None else spec.num_rays
         self._scan: NDArray[Any] | None = None
+        layout = getattr(env.unwrapped, "observation_layout", None) or {}
+        flat = env.observation_space == env.unwrapped.observation_space
+        self._flat_laser: slice | None = layout.get("laser") if flat else None
         self.metadata = {**env.metadata, "render_modes": ["rgb_array"]}
 
     @property
@@ -199,7 +203,11 @@ class TopDownView(gym.Wrapper[Any, Any, Any, Any], RecordConstructorArgs):
         return "rgb_array"
 
     def _keep_scan(self, observation: Any) -> None:
-        scan = observation.get("laser") if isinstance(observation, dict) else None
+        if isinstance(observation, dict):
+            scan = observation.get("laser")
+        else:  # obs_mode="flat": the env names the laser's slice
+            part = self._flat_laser
+            scan = None if part is None else np.asarray(observation)[part]
         fits = scan is not None and np.shape(scan) == (self._rays,)
         self._scan = np.array(scan) if fits else None
 

@@ -14,6 +14,12 @@ from bubblerob_env import BubbleRobEnv
 from bubblerob_env.wrappers import laser_pooling, min_pool
 from policies.base import ActionMapper, Policy
 from policies.handwritten import LaserPolicy, RandomPolicy, ReactivePolicy
+from policies.observations import (
+    FlatObservationPolicy,
+    PolicyEnvMismatchError,
+    check_observations,
+    dict_view,
+)
 
 __all__ = [
     "BUILTIN_POLICIES",
@@ -35,10 +41,6 @@ SHIPPED_POLICIES = {"ppo": TRAINED_DIR / "ppo_bubblerob_v0.onnx"}
 NORMALIZATION_SUFFIX = "_vecnormalize.pkl"
 """A model ``NAME.zip`` trained with ``normalize: true`` keeps its statistics in
 ``NAME_vecnormalize.pkl`` beside it (written by ``python -m train``)."""
-
-
-class PolicyEnvMismatchError(ValueError):
-    """A trained policy was asked to drive an env unlike the one it was trained in."""
 
 
 def _unwrap(env: gym.Env[Any, Any] | None) -> BubbleRobEnv:
@@ -109,48 +111,77 @@ def load_policy(
             laser rays, camera) differs from ``env``.
     """
     name = str(name_or_path)
+    space, layout = (None, None) if env is None else dict_view(env, name)
+    policy = _load(name, env, space, seed)
+    if layout is None or not _takes_dict(policy):
+        return policy
+    return FlatObservationPolicy(policy, layout)
+
+
+def _takes_dict(policy: Policy) -> bool:
+    """False for an SB3 model trained on ``obs_mode="flat"`` observations: it takes them as is."""
+    model = getattr(policy, "model", None)
+    return model is None or isinstance(model.observation_space, gym.spaces.Dict)
+
+
+def _load(
+    name: str, env: gym.Env[Any, Any] | None, space: gym.spaces.Dict | None, seed: int
+) -> Policy:
+    """The policy ``name`` for ``env``, whose (``Dict``) observation space is ``space``."""
     if name in SHIPPED_POLICIES:
-        return _load_onnx(SHIPPED_POLICIES[name], env, name)
+        return _load_onnx(SHIPPED_POLICIES[name], env, name, space)
     if name in BUILTIN_POLICIES:
-        base = _unwrap(env)
-        mapper = ActionMapper(
-            base.drive, base.action_type, base.max_linear_speed, base.max_angular_speed
-        )
-        if name == "reactive":
-            return ReactivePolicy(mapper, base.proximity_spec.trigger_distance, dt=base.dt)
-        if name == "laser":
-            if base.laser_spec is None:
-                raise ValueError("the laser policy needs an env with a laser (laser_num_rays > 0)")
-            return LaserPolicy(mapper, base.laser_spec)
-        return RandomPolicy(mapper, seed)
+        return _builtin(name, _unwrap(env), space, seed)
     path = Path(name)
     if path.suffix in (".zip", ".onnx"):
         if not path.is_file():
             raise ValueError(f"policy file {path} does not exist")
         if path.suffix == ".onnx":
-            return _load_onnx(path, env, name)
-        return _load_sb3(path, env, name)
+            return _load_onnx(path, env, name, space)
+        return _load_sb3(path, env, name, space)
     raise ValueError(
         f"unknown policy {name!r}: use one of {[*BUILTIN_POLICIES, *SHIPPED_POLICIES]} "
         "or a path to an exported .onnx or an SB3 .zip"
     )
 
 
-def _load_onnx(path: Path, env: gym.Env[Any, Any] | None, name: str) -> Policy:
+def _builtin(name: str, base: BubbleRobEnv, space: gym.spaces.Dict | None, seed: int) -> Policy:
+    # Every built-in reads proximity (a batch's size too); the laser policy, the whole scan.
+    needed: dict[str, tuple[int, ...] | None] = {"proximity": (1,)}
+    if name == "laser":
+        if base.laser_spec is None:
+            raise ValueError("the laser policy needs an env with a laser (laser_num_rays > 0)")
+        needed["laser"] = (base.laser_spec.num_rays,)
+    if space is not None:
+        check_observations(name, needed, space)
+    mapper = ActionMapper(
+        base.drive, base.action_type, base.max_linear_speed, base.max_angular_speed
+    )
+    if name == "reactive":
+        return ReactivePolicy(mapper, base.proximity_spec.trigger_distance, dt=base.dt)
+    if name == "laser" and base.laser_spec is not None:
+        return LaserPolicy(mapper, base.laser_spec)
+    return RandomPolicy(mapper, seed)
+
+
+def _load_onnx(
+    path: Path, env: gym.Env[Any, Any] | None, name: str, space: gym.spaces.Dict | None
+) -> Policy:
     from policies.onnx_policy import OnnxPolicy
 
     policy = OnnxPolicy(path)
     trained = policy.metadata.get("env")
     if env is not None and trained is not None:
         check_env(name, trained, env, policy.metadata.get("env_kwargs"))
-    if env is not None:
-        _check_observation_keys(name, list(policy.input_names), env)
+    if space is not None:
+        _check_exact_keys(name, list(policy.input_names), space)
+        check_observations(name, policy.observation_shapes, space)
     return policy
 
 
-def _check_observation_keys(name: str, keys: list[str], env: gym.Env[Any, Any]) -> None:
-    space = env.observation_space
-    if isinstance(space, gym.spaces.Dict) and sorted(keys) != sorted(space.spaces):
+def _check_exact_keys(name: str, keys: list[str], space: gym.spaces.Dict) -> None:
+    """A trained model takes exactly the env's keys: another set means another env."""
+    if sorted(keys) != sorted(space.spaces):
         raise PolicyEnvMismatchError(
             f"policy {name!r} takes observation keys {sorted(keys)}, "
             f"but this env gives {sorted(space.spaces)}"
@@ -284,7 +315,12 @@ def _pooled_shape(shape: tuple[int, ...], key: str, pooling: list[tuple[str, int
     return shape
 
 
-def _load_sb3(path: Path, env: gym.Env[Any, Any] | None = None, name: str = "") -> Policy:
+def _load_sb3(
+    path: Path,
+    env: gym.Env[Any, Any] | None = None,
+    name: str = "",
+    space: gym.spaces.Dict | None = None,
+) -> Policy:
     import pickle
 
     try:
@@ -303,22 +339,13 @@ def _load_sb3(path: Path, env: gym.Env[Any, Any] | None = None, name: str = "") 
         )
     model: Any = (SAC if sb3_algorithm(path) == "SAC" else PPO).load(path, device="cpu")
     pooling = recorded_pooling(path)
-    if env is not None:
+    if env is not None and space is not None:
         kwargs = _recorded_env_kwargs(path)
         if kwargs is not None:
             trained_env = gym.make("BubbleRob-v0", **kwargs)
             check_env(name or str(path), env_signature(trained_env), env, kwargs)
             trained_env.close()
-        _check_observation_keys(name or str(path), list(model.observation_space.spaces), env)
-        env_spaces: dict[str, Any] = dict(getattr(env.observation_space, "spaces", {}))
-        for key, space in model.observation_space.spaces.items():
-            given = _pooled_shape(tuple(env_spaces[key].shape), key, pooling)
-            if given != space.shape:
-                pooled = " after its laser pooling" if given != env_spaces[key].shape else ""
-                raise PolicyEnvMismatchError(
-                    f"policy {name or path!s} takes {key} of shape {space.shape}, "
-                    f"but this env gives {env_spaces[key].shape}{pooled}"
-                )
+        _check_sb3_spaces(name or str(path), model.observation_space, env, space, pooling)
     stats = path.with_name(path.stem + NORMALIZATION_SUFFIX)
     policy: Policy
     if not stats.is_file():
@@ -329,3 +356,30 @@ def _load_sb3(path: Path, env: gym.Env[Any, Any] | None = None, name: str = "") 
         normalizer.training = False
         policy = NormalizedPolicy(model, normalizer)
     return PooledPolicy(policy, pooling) if pooling else policy
+
+
+def _check_sb3_spaces(
+    name: str,
+    trained: gym.Space[Any],
+    env: gym.Env[Any, Any],
+    space: gym.spaces.Dict,
+    pooling: list[tuple[str, int]],
+) -> None:
+    """The model's observation space against the env's (its ``Dict``, after laser pooling)."""
+    if not isinstance(trained, gym.spaces.Dict):  # trained on obs_mode="flat": fed as it is
+        if trained != env.observation_space:
+            raise PolicyEnvMismatchError(
+                f"policy {name} was trained on flat observations of shape {trained.shape}, but "
+                f"this env gives {type(env.observation_space).__name__} observations of shape "
+                f"{env.observation_space.shape}: make the env with obs_mode='flat' as in training"
+            )
+        return
+    _check_exact_keys(name, list(trained.spaces), space)
+    for key, trained_space in trained.spaces.items():
+        given = _pooled_shape(tuple(space[key].shape or ()), key, pooling)
+        if given != trained_space.shape:
+            pooled = " after its laser pooling" if given != space[key].shape else ""
+            raise PolicyEnvMismatchError(
+                f"policy {name} takes {key} of shape {trained_space.shape}, "
+                f"but this env gives {space[key].shape}{pooled}"
+            )

@@ -226,3 +226,16 @@ def test_wrapper_outside_pooling_draws_no_rays() -> None:
     plain = TopDownRenderer.for_env(env).render()
     assert np.array_equal(env.render(), plain)
     env.close()
+
+
+def test_wrapper_draws_the_scan_of_a_flat_env_as_of_a_dict_env() -> None:
+    frames = []
+    for obs_mode in ("dict", "flat"):
+        env = TopDownView(gym.make("BubbleRob-v0", obs_mode=obs_mode))
+        env.reset(seed=3)
+        for _ in range(10):
+            env.step([0.5, 0.3])
+        frames.append(env.render())
+        env.close()
+    assert np.array_equal(*frames)
+    assert (frames[0] != TopDownRenderer.for_env(env).render()).any()  # rays were drawn
