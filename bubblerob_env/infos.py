@@ -86,29 +86,30 @@ def batched_step_info(
     Robots in ``resets`` (reset in this step) get their reset ``info`` instead, which has no
     ``is_success``: as :func:`~bubblerob_env.vector.collate_infos` collates it.
     """
-    out = core.out
+    # One copy of the results; every float key is a view into it (cheaper than a copy a key).
+    out = core.out.copy()
     n = out.shape[0]
-    everywhere = np.ones(n, dtype=bool)
     info: dict[str, Any] = {}
     for key, column, width in _FLOAT_COLUMNS:
-        info[key] = out[:, column].copy() if width == 0 else out[:, column : column + width].copy()
-    info["collision"] = out[:, OUT.COLLISION] != 0.0
+        info[key] = out[:, column] if width == 0 else out[:, column : column + width]
+    info["collision"] = out[:, _COLLISION] != 0.0
     info["proximity_triggered"] = core.proximity[:, 0].astype(np.float64) < trigger_distance
-    info["action_clipped"] = out[:, OUT.CLIPPED] != 0.0
+    info["action_clipped"] = out[:, _CLIPPED] != 0.0
     info["clipped_actions"] = clipped_actions.copy()
     for key, column in _REWARD_COLUMNS:
-        info[key] = out[:, column].copy()
-    info["is_success"] = ~collided
+        info[key] = out[:, column]
+    success = ~collided
     for i, reset_info in resets.items():
         for key, value in reset_info.items():
             info[key][i] = value
-    success_known = everywhere.copy()
+    success_known = np.ones(n, dtype=bool)
     success_known[list(resets)] = False
-    info["is_success"] = info["is_success"] & success_known
-    for i in diverged:
-        info["is_success"][i] = False
-    masks = {key: everywhere for key in info}
-    masks["is_success"] = success_known
+    success_known_copy = success_known.copy()
+    success &= success_known
+    success[list(diverged)] = False
+    info["is_success"] = success
+    masks = {key: np.ones(n, dtype=bool) for key in info}
+    masks["is_success"] = success_known_copy
     if diverged:
         reasons = np.full(n, "", dtype=object)
         present = np.zeros(n, dtype=bool)
@@ -116,7 +117,5 @@ def batched_step_info(
             reasons[i], present[i] = reason, True
         info["physics_diverged"], masks["physics_diverged"] = reasons, present
     return {
-        part: value
-        for key in info
-        for part, value in ((key, info[key]), (f"_{key}", masks[key].copy()))
+        part: value for key in info for part, value in ((key, info[key]), (f"_{key}", masks[key]))
     }

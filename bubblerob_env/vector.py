@@ -52,6 +52,10 @@ default; the most a robot used in long random runs is far below (see docs/BENCHM
 BatchObs = dict[str, NDArray[Any]] | NDArray[np.float32]
 """Batched observations: a dict of arrays (``obs_mode="dict"``) or one array (``"flat"``)."""
 Step = tuple[Any, float, bool, bool, dict[str, Any]]
+# The kernel's result columns, as plain ints (enum members index numpy arrays more slowly).
+_ARENA_FULL, _COLLISION, _CLIPPED, _DIVERGED, _REWARD = (
+    int(c) for c in (OUT.ARENA_FULL, OUT.COLLISION, OUT.CLIPPED, OUT.DIVERGED, OUT.REWARD)
+)
 
 
 class _BatchEnv(BubbleRobEnv):
@@ -262,19 +266,19 @@ class BubbleRobVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
         self._run_kernel(stepped)
         self._render_robots(robots)
         out = core.out
-        if out[robots, OUT.ARENA_FULL].any():
-            i = int(robots[np.flatnonzero(out[robots, OUT.ARENA_FULL])[0]])
+        if out[robots, _ARENA_FULL].any():
+            i = int(robots[np.flatnonzero(out[robots, _ARENA_FULL])[0]])
             raise RuntimeError(
                 f"robot {i}: MuJoCo's arena of {ARENA_MEMORY} bytes is full (contacts or "
                 "constraints were dropped); raise bubblerob_env.vector.ARENA_MEMORY"
             )
-        collision = stepped & (out[:, OUT.COLLISION] != 0.0)
+        collision = stepped & (out[:, _COLLISION] != 0.0)
         self._collided |= collision
-        self._clipped_actions += stepped & (out[:, OUT.CLIPPED] != 0.0)
+        self._clipped_actions += stepped & (out[:, _CLIPPED] != 0.0)
         diverged = {
-            i: self.envs[i]._diverged() for i in robots[out[robots, OUT.DIVERGED] != 0].tolist()
+            i: self.envs[i]._diverged() for i in robots[out[robots, _DIVERGED] != 0].tolist()
         }
-        rewards = np.where(stepped, out[:, OUT.REWARD], 0.0)
+        rewards = np.where(stepped, out[:, _REWARD], 0.0)
         terminated = collision & self.envs[0].terminate_on_collision
         truncated = np.zeros(self.num_envs, dtype=bool)
         truncated[list(diverged)] = True
