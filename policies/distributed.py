@@ -25,6 +25,7 @@ from policies.evaluation import EpisodeStats, EvalResult, run_episode, summarize
 
 __all__ = [
     "LOCAL",
+    "ONE_STREAM_POLICIES",
     "TASK_RETRIES",
     "check_address",
     "evaluate_command",
@@ -41,6 +42,10 @@ LOCAL = "local"
 
 TASK_RETRIES = 3
 """How often Ray reruns a task whose worker died (killed, out of memory, node lost)."""
+
+ONE_STREAM_POLICIES = ("random",)
+"""Policies whose actions depend on the episodes before (``random`` draws every action from one
+generator, seeded once): all their seeds go to one task, so that a run equals the serial one."""
 
 CONNECT_TIMEOUT_S = 5.0
 """How long ``HOST:PORT`` gets to accept a connection before ``--ray`` gives up on it."""
@@ -218,7 +223,11 @@ def evaluate_on_ray(
         )
         task = ray.remote(num_cpus=1, max_retries=TASK_RETRIES)(evaluate_chunk)
         work = [
-            (name, chunk) for name in policy_names for chunk in seed_chunks(seed, episodes, size)
+            (name, chunk)
+            for name in policy_names
+            for chunk in seed_chunks(
+                seed, episodes, episodes if name in ONE_STREAM_POLICIES else size
+            )
         ]
         refs = [
             task.remote(name, list(chunk), env_id, dict(env_kwargs or {})) for name, chunk in work

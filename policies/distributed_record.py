@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from policies.distributed import (
+    ONE_STREAM_POLICIES,
     TASK_RETRIES,
     check_address,
     chunk_size_for,
@@ -56,8 +57,8 @@ def record_chunk(
     """Record one episode per seed into the bag at ``path`` (the task's body).
 
     The loop of the serial ``bubblerob record``; the policy is seeded with the chunk's first
-    seed (only ``random`` uses it). The bag is written afresh: a retried task replaces what its
-    killed predecessor left.
+    seed (only ``random`` uses it, and records all its seeds in one chunk, as serially). The
+    bag is written afresh: a retried task replaces what its killed predecessor left.
     """
     import gymnasium as gym
     import numpy as np
@@ -139,9 +140,10 @@ def record_on_ray(
     recorder_kwargs = _recorder_kwargs(args)
     with ray_session(args.ray, num_cpus) as ray:
         cpus = ray.cluster_resources().get("CPU", 1.0)
-        chunks = seed_chunks(
-            args.seed, args.episodes, chunk_size or chunk_size_for(args.episodes, cpus)
-        )
+        size = chunk_size or chunk_size_for(args.episodes, cpus)
+        if args.policy in ONE_STREAM_POLICIES:
+            size = args.episodes
+        chunks = seed_chunks(args.seed, args.episodes, size)
         names = [chunk_bag_name(args.policy, chunk) for chunk in chunks]
         _check_targets(args.out, names, args.format, args.overwrite)
         task = ray.remote(num_cpus=1, max_retries=TASK_RETRIES)(record_chunk)

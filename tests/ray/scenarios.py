@@ -28,7 +28,7 @@ import ray
 from bubblerob_env.cli import main as bubblerob
 from policies.distributed import evaluate_on_ray
 
-EVAL_POLICIES = ["reactive", "laser", "ppo"]
+EVAL_POLICIES = ["reactive", "laser", "ppo", "random"]
 
 
 def _rows_and_episodes(results: Any, chunks: Any) -> dict[str, Any]:

@@ -66,12 +66,12 @@ def _json_like(value: Any) -> Any:
 
 def test_evaluate_rows_and_episodes_equal_serial(ray_runs: tuple[Path, dict[str, Any]]) -> None:
     result = ray_runs[1]["evaluate"]
-    policies = ["reactive", "laser", "ppo"]
+    policies = ["reactive", "laser", "ppo", "random"]
     serial_rows = [dataclasses.asdict(evaluate(p, 6, 1000, env_kwargs=SHORT)) for p in policies]
     assert result["rows"] == serial_rows
     serial = [e for p in policies for e in _serial_episodes(p, range(1000, 1006), SHORT)]
     assert result["episodes"] == _json_like(serial)
-    assert result["tasks"] == 9  # 3 policies x 3 chunks of 2 seeds
+    assert result["tasks"] == 10  # 3 policies x 3 chunks of 2 seeds; random's one stream in 1
 
 
 def test_killed_worker_is_retried_without_losing_or_repeating(
