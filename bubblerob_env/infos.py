@@ -39,15 +39,23 @@ _REWARD_COLUMNS = (
 
 
 def robot_info(
-    core: RobotBatch, i: int, trigger_distance: float, clipped_actions: int
+    core: RobotBatch,
+    i: int,
+    trigger_distance: float,
+    clipped_actions: int,
+    odometry: NDArray[np.float64],
 ) -> dict[str, Any]:
-    """Robot ``i``'s ``info`` without ``is_success`` (what a reset returns, and a step's base)."""
+    """Robot ``i``'s ``info`` without ``is_success`` (what a reset returns, and a step's base).
+
+    ``odometry``: every robot's odometry ``(x, y, yaw)`` (``Odometry.poses``).
+    """
     row = core.out[i]
     values = row.tolist()
     info: dict[str, Any] = {
         key: values[column] if width == 0 else row[column : column + width].copy()
         for key, column, width in _FLOAT_COLUMNS
     }
+    info["odom_x"], info["odom_y"], info["odom_yaw"] = odometry[i].tolist()
     info["collision"] = values[_COLLISION] != 0.0
     info["proximity_triggered"] = bool(float(core.proximity[i, 0]) < trigger_distance)
     info["action_clipped"] = values[_CLIPPED] != 0.0
@@ -64,9 +72,10 @@ def robot_step_info(
     collided: bool,
     clipped_actions: int,
     diverged: dict[int, str],
+    odometry: NDArray[np.float64],
 ) -> dict[str, Any]:
     """Robot ``i``'s ``info`` after a step: ``is_success`` so far, and a divergence's reason."""
-    info = robot_info(core, i, trigger_distance, clipped_actions)
+    info = robot_info(core, i, trigger_distance, clipped_actions, odometry)
     info["is_success"] = not (collided or i in diverged)
     if i in diverged:
         info["physics_diverged"] = diverged[i]
@@ -80,6 +89,7 @@ def batched_step_info(
     clipped_actions: NDArray[np.int64],
     diverged: dict[int, str],
     resets: dict[int, dict[str, Any]],
+    odometry: NDArray[np.float64],
 ) -> dict[str, Any]:
     """Every robot's step ``info`` as Gymnasium's dict of arrays with ``_key`` masks.
 
@@ -92,6 +102,12 @@ def batched_step_info(
     info: dict[str, Any] = {}
     for key, column, width in _FLOAT_COLUMNS:
         info[key] = out[:, column] if width == 0 else out[:, column : column + width]
+    odometry = odometry.copy()
+    info["odom_x"], info["odom_y"], info["odom_yaw"] = (
+        odometry[:, 0],
+        odometry[:, 1],
+        odometry[:, 2],
+    )
     info["collision"] = out[:, _COLLISION] != 0.0
     info["proximity_triggered"] = core.proximity[:, 0].astype(np.float64) < trigger_distance
     info["action_clipped"] = out[:, _CLIPPED] != 0.0

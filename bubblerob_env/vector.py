@@ -42,6 +42,7 @@ from bubblerob_env.core.kernel import OUT
 from bubblerob_env.core.robots import RobotBatch
 from bubblerob_env.env import BubbleRobEnv
 from bubblerob_env.infos import batched_step_info, robot_step_info
+from bubblerob_env.odometry import Odometry, draw_slip
 
 __all__ = ["ARENA_MEMORY", "BubbleRobVectorEnv", "collate_infos"]
 
@@ -56,6 +57,7 @@ Step = tuple[Any, float, bool, bool, dict[str, Any]]
 _ARENA_FULL, _COLLISION, _CLIPPED, _DIVERGED, _REWARD = (
     int(c) for c in (OUT.ARENA_FULL, OUT.COLLISION, OUT.CLIPPED, OUT.DIVERGED, OUT.REWARD)
 )
+_WHEELS = slice(int(OUT.WHEEL_SPEEDS), int(OUT.WHEEL_SPEEDS) + 2)  # measured (left, right) rad/s
 
 
 class _BatchEnv(BubbleRobEnv):
@@ -126,8 +128,9 @@ class BubbleRobVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
         self.observation_space = batch_space(first.observation_space, num_envs)
         self.action_space = batch_space(first.action_space, num_envs)
         self._core = RobotBatch(self.envs, first._analytic, first._core.tables)
+        self._odometry = Odometry(num_envs, first.drive, first.dt, first.odometry_noise)
         for i, env in enumerate(self.envs):  # each robot now senses into the batch's buffers
-            env._attach(self._core, i)
+            env._attach(self._core, i, self._odometry)
         self._trigger = first.proximity_spec.trigger_distance
         # OpenGL contexts (camera, window) belong to the thread that made them: with them, the
         # calling thread steps every robot (rendering dominates the step then anyway).
@@ -189,7 +192,13 @@ class BubbleRobVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
         result = self._step(actions)
         obs, rewards, terminated, truncated, stepped, diverged, resets, finals = result
         info = batched_step_info(
-            self._core, self._trigger, self._collided, self._clipped_actions, diverged, resets
+            self._core,
+            self._trigger,
+            self._collided,
+            self._clipped_actions,
+            diverged,
+            resets,
+            self._odometry.poses,
         )
         if finals:
             self._add_finals(info, finals, diverged)
@@ -222,6 +231,7 @@ class BubbleRobVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
                 bool(self._collided[i]),
                 int(self._clipped_actions[i]),
                 diverged,
+                self._odometry.poses,
             )
             for i in range(self.num_envs)
         ]
@@ -264,6 +274,7 @@ class BubbleRobVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
         core.actions[:] = checked
         self._draw_noise(robots)
         self._run_kernel(stepped)
+        self._advance_odometry(robots)
         self._render_robots(robots)
         out = core.out
         if out[robots, _ARENA_FULL].any():
@@ -299,6 +310,7 @@ class BubbleRobVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
                     bool(self._collided[i]),
                     int(self._clipped_actions[i]),
                     diverged,
+                    self._odometry.poses,
                 )
                 finals[i] = (_robot_obs(obs, i), final_info)
                 resets[i] = self._reset_robot(i, None, None)
@@ -331,6 +343,16 @@ class BubbleRobVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
             self._core.noise[i] = self.envs[i].np_random.normal(
                 0.0, spec.noise_std, size=spec.num_rays
             )
+
+    def _advance_odometry(self, robots: NDArray[np.int64]) -> None:
+        # After the kernel, each robot's wheel slip from its own generator, as the single env.
+        noise = self._odometry.noise
+        slip = (
+            np.array([draw_slip(self.envs[i].np_random, noise) for i in robots.tolist()])
+            if noise and len(robots)
+            else None
+        )
+        self._odometry.advance(robots, self._core.out[robots, _WHEELS], slip)
 
     def _run_kernel(self, stepped: NDArray[np.bool_]) -> None:
         """One kernel call per thread share of the robots that step."""

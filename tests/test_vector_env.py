@@ -118,7 +118,7 @@ def test_each_robot_is_a_plain_env_bit_for_bit(num_envs, num_threads, mode):
 @pytest.mark.parametrize(
     "kwargs",
     [
-        {"action_type": "twist", "laser_noise_std": 0.05},
+        {"action_type": "twist", "laser_noise_std": 0.05, "odometry_noise": 0.05},
         {"laser_num_rays": 0, "terminate_on_collision": False},
         {"laser_num_rays": 45, "laser_fov": 3.0, "num_obstacles": (12, 16)},
         {"camera_width": 16, "camera_height": 12},
