@@ -123,7 +123,7 @@ def test_analytic_equals_mj_multiray_on_random_and_tilted_poses(kwargs):
         assert rays >= 100_000 and hits > rays // 2
 
 
-def test_grazing_rays_at_box_corners_and_cylinder_tangents():
+def test_grazing_rays_at_box_corners_cylinder_tangents_and_arena_corners():
     env = gym.make("BubbleRob-v0", num_obstacles=(8, 10))
     rng = np.random.default_rng(11)
     spec = env.unwrapped.laser_spec
@@ -146,6 +146,9 @@ def test_grazing_rays_at_box_corners_and_cylinder_tangents():
                     (x + math.cos(bearing + half), y + math.sin(bearing + half)),
                     (x + math.cos(bearing - half), y + math.sin(bearing - half)),
                 ]
+            half = env.unwrapped.arena_size / 2
+            thick = half + 0.1  # the walls' outer corners too (their thickness is 0.05 m a side)
+            targets += [(sx * c, sy * c) for c in (half, thick) for sx in (-1, 1) for sy in (-1, 1)]
             for tx, ty in targets:
                 # Turn the robot so that ray 7 points exactly at the corner or tangent.
                 yaw = math.atan2(ty - y, tx - x) - spec.angles()[7]
@@ -210,8 +213,10 @@ def test_readings_equal_a_2d_oracle_for_a_level_scanner():
             if any(math.hypot(x - o.x, y - o.y) < o.bounding_radius + 0.02 for o in obstacles):
                 continue  # the 2D oracle does not cast from inside an obstacle
             _place(env, x, y, rng.uniform(-math.pi, math.pi), None, None)
-            analytic, _ = _both(env)
-            np.testing.assert_allclose(analytic, _oracle(env), atol=2e-6)
+            analytic, reference = _both(env)
+            oracle = _oracle(env)
+            np.testing.assert_allclose(analytic, oracle, atol=2e-6)
+            np.testing.assert_allclose(reference, oracle, atol=2e-6)
             compared += 1
     assert compared > 300
 
