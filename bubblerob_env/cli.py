@@ -22,7 +22,7 @@ __all__ = ["HelpFormatter", "build_parser", "main"]
 # subcommands they add (listed here so that they show, and explain themselves, without the extra).
 _SUBCOMMAND_MODULES: tuple[tuple[str, str | None, tuple[str, ...]], ...] = (
     ("policies.teleop", None, ("teleop",)),
-    ("bubblerob_env.ros.cli", "ros", ("record", "info", "replay", "node")),
+    ("bubblerob_env.ros.cli", "ros", ("record", "info", "replay", "recover", "node")),
     ("policies.bag_map", "ros", ("map",)),
     ("policies.cli", "demo", ("evaluate", "demo")),
     ("train.cli", "train", ("train",)),
@@ -38,6 +38,7 @@ EXAMPLES = {
     "record": "bubblerob record --policy laser --episodes 2 --seed 0 --format mcap --out bags",
     "info": "bubblerob info bags/bubblerob_laser_seed0",
     "replay": "bubblerob replay bags/bubblerob_laser_seed0",
+    "recover": "bubblerob recover bags/bubblerob_laser_seed0",
     "node": "bubblerob node --rate-factor 1 --namespace robot2",
     "map": "bubblerob map bags/bubblerob_laser_seed0 --out map.png",
     "teleop": "bubblerob teleop --start-pose 0 0 0 --record bags/drive",
@@ -120,10 +121,28 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _extra_of(parser: argparse.ArgumentParser, command: str) -> str | None:
+    """The extra that ``command`` needs (None: none, or no such command)."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction) and command in action.choices:
+            extra = action.choices[command].get_default("extra")
+            if extra is not None:
+                return str(extra)
+    return next((e for _, e, names in _SUBCOMMAND_MODULES if command in names), None)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``bubblerob`` with ``argv`` (default: the process arguments)."""
+    arguments = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
-    args = parser.parse_args(argv)
+    # A missing extra is named before the command's own arguments are checked: a bare
+    # 'bubblerob evaluate' without [demo] says to install it, not that --policy is missing.
+    command = next((argument for argument in arguments if not argument.startswith("-")), None)
+    if command is not None and not {"-h", "--help"} & set(arguments):
+        extra = _extra_of(parser, command)
+        if extra is not None:
+            require_extra(extra, f"bubblerob {command}")
+    args = parser.parse_args(arguments)
     if args.extra is not None:
         require_extra(args.extra, f"bubblerob {args.command}")
     handler = getattr(args, "handler", None)
