@@ -173,6 +173,11 @@ def _record(args: argparse.Namespace) -> int:
             start_time=args.start_time,
             map_resolution=check_resolution(args.map_resolution),
         )
+    except FileExistsError as error:  # the library's message names overwrite=True
+        env.close()
+        print(f"bubblerob record: bag {error.filename} already exists; pass --overwrite to "
+              "replace it", file=sys.stderr)  # fmt: skip
+        return 2
     except (OSError, ValueError) as error:
         env.close()
         print(f"bubblerob record: {error}", file=sys.stderr)

@@ -13,6 +13,7 @@ each episode, so that even a hard kill loses at most the current episode (``rosb
 
 from __future__ import annotations
 
+import errno
 import shutil
 import sqlite3
 from collections.abc import Sequence
@@ -94,8 +95,9 @@ def _prepare(path: Path, overwrite: bool) -> None:
     """Refuse or clear an existing bag, and make sure the parent directory is writable."""
     if path.exists() or path.is_symlink():
         if not overwrite:
+            # The path as the error's filename: the CLI words its own message ("--overwrite").
             raise FileExistsError(
-                f"bag {path} already exists; pass overwrite=True (--overwrite) to replace it"
+                errno.EEXIST, "bag already exists; pass overwrite=True to replace it", str(path)
             )
         if path.is_dir() and not path.is_symlink():
             unknown = [
