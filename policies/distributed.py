@@ -14,6 +14,7 @@ this package installed: the tasks import it.
 
 from __future__ import annotations
 
+import logging
 import math
 import sys
 from collections.abc import Callable, Iterator, Sequence
@@ -111,7 +112,7 @@ def ray_session(address: str, num_cpus: int | None = None) -> Iterator[Any]:
     options: dict[str, Any] = {
         "include_dashboard": False,
         "log_to_driver": False,  # the tasks' own output would interleave with the table
-        "logging_level": "WARNING",
+        "logging_level": logging.WARNING,
     }
     try:
         if address == LOCAL:

@@ -162,7 +162,28 @@ def multi_node(params: dict[str, Any]) -> dict[str, Any]:
     return {"evaluate": evaluated, "record": recorded, "node_count": 2}
 
 
+def rllib_ppo(params: dict[str, Any]) -> dict[str, Any]:
+    """Iterations of train.rllib_ppo's PPO: what the env runners stepped, and the returns."""
+    from train.rllib_ppo import build_config
+
+    config = build_config(2, params["envs"], params["rollout"], params["env_kwargs"])
+    algo = config.build_algo()
+    try:
+        results = [algo.train()["env_runners"] for _ in range(params["iterations"])]
+        envs = algo.env_runner_group.foreach_env_runner(
+            lambda runner: type(runner.env.unwrapped).__name__, local_env_runner=False
+        )
+    finally:
+        algo.stop()
+    return {
+        "env_classes": envs,
+        "steps": [r["num_env_steps_sampled_lifetime"] for r in results],
+        "returns": [r.get("episode_return_mean") for r in results],
+    }
+
+
 SCENARIOS: dict[str, Callable[[dict[str, Any]], dict[str, Any]]] = {
+    "rllib_ppo": rllib_ppo,
     "evaluate": evaluate,
     "evaluate_with_kill": evaluate_with_kill,
     "record": record,
