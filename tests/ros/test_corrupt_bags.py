@@ -218,3 +218,20 @@ def test_an_unfinished_bag_is_still_read_as_unfinished(bags, tmp_path):
     file.write_bytes(file.read_bytes()[: file.stat().st_size * 3 // 4])  # killed mid-way
     summary = read_summary(bag)
     assert summary.unfinished and 1 <= len(summary.episodes) < EPISODES
+
+
+def test_a_sqlite3_topic_name_that_is_not_utf8_is_one_line_everywhere(bags, tmp_path, capsys):
+    bag = _copy(bags[("sqlite3", "none")], tmp_path)  # found by tests/ros/test_bag_fuzz.py
+    file = storage_file(bag)
+    data = bytearray(file.read_bytes())
+    at = data.index(b"/leftMotorSpeed")
+    while at >= 0:  # the topics table, its index, the metadata: not UTF-8 in any of them
+        data[at + 1] = 0xB9
+        at = data.find(b"/leftMotorSpeed", at + 1)
+    file.write_bytes(bytes(data))
+    before = _digest(bag)
+    for command in ("info", "replay", "recover"):
+        done = cli.main([command, str(bag)])
+        err = capsys.readouterr().err
+        assert done == 2 and _one_line(err).startswith(f"bubblerob {command}: "), err
+    assert _digest(bag) == before

@@ -159,7 +159,7 @@ def _read_db3(path: Path, scan: Scan) -> str:
         db = sqlite3.connect(copy)
         try:
             return _read_rows(db, scan)
-        except sqlite3.Error as error:
+        except (sqlite3.Error, UnicodeDecodeError) as error:  # a text column's bytes flipped
             if not scan.topics:  # not even its topics table reads
                 raise OSError(f"{path} is not a rosbag2 sqlite3 file: {error}") from None
             scan.damage = f"{path}: SQLite cannot read it past row {len(scan.messages)} ({error})"
@@ -174,7 +174,7 @@ def _read_rows(db: sqlite3.Connection, scan: Scan) -> str:
     try:  # Jazzy's schema table names the distro; Humble's bags have none
         (found,) = db.execute("SELECT ros_distro FROM schema").fetchone() or ("",)
         distro = "humble" if found == "humble" else "jazzy"
-    except sqlite3.Error:
+    except (sqlite3.Error, UnicodeDecodeError):
         distro = "humble"
     scan.topics = {
         int(i): (str(name), str(msgtype))
