@@ -16,7 +16,14 @@ from typing import Any
 
 from bubblerob_env.extras import require_extra
 
-__all__ = ["HelpFormatter", "build_parser", "main"]
+__all__ = [
+    "HelpFormatter",
+    "add_env_arguments",
+    "build_parser",
+    "env_kwargs_json",
+    "main",
+    "make_env",
+]
 
 # Modules that define ``add_subcommands(subparsers)``: the extra their subcommands need, and the
 # subcommands they add (listed here so that they show, and explain themselves, without the extra).
@@ -69,6 +76,50 @@ class HelpFormatter(argparse.HelpFormatter):
             else:
                 paragraphs.append(super()._fill_text(line, width, indent))
         return "\n".join(paragraphs)
+
+
+def env_kwargs_json(text: str) -> dict[str, Any]:
+    """``--env-kwargs``: a JSON object of ``gym.make`` keyword arguments."""
+    import json
+
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as error:
+        raise argparse.ArgumentTypeError(f"--env-kwargs must be a JSON object: {error}") from error
+    if not isinstance(value, dict):
+        raise argparse.ArgumentTypeError(f"--env-kwargs must be a JSON object, got {text}")
+    return value
+
+
+def add_env_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--env ID`` and ``--env-kwargs JSON``, the env every env-making subcommand makes."""
+    parser.add_argument("--env", default="BubbleRob-v0", metavar="ID", help="env id for gym.make")
+    parser.add_argument(
+        "--env-kwargs",
+        type=env_kwargs_json,
+        default={},
+        metavar="JSON",
+        help="gym.make keyword arguments as a JSON object, e.g. '{\"arena_size\": 3.0}'",
+    )
+
+
+def make_env(command: str, env_id: str, env_kwargs: dict[str, Any], **fixed: Any) -> Any:
+    """``gym.make(env_id, **env_kwargs, **fixed)``; a bad id or kwarg is one line, exit 2."""
+    import gymnasium as gym
+
+    clash = sorted(key for key in fixed if key in env_kwargs and env_kwargs[key] != fixed[key])
+    if clash:
+        print(
+            f"bubblerob {command}: --env-kwargs cannot set {', '.join(clash)} here "
+            f"(it uses {', '.join(f'{key}={fixed[key]!r}' for key in clash)})",
+            file=sys.stderr,
+        )
+        raise SystemExit(2)
+    try:
+        return gym.make(env_id, **{**env_kwargs, **fixed})
+    except (gym.error.Error, TypeError, ValueError) as error:
+        print(f"bubblerob {command}: --env {env_id} --env-kwargs: {error}", file=sys.stderr)
+        raise SystemExit(2) from None
 
 
 def _version() -> str:

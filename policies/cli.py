@@ -3,28 +3,18 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
 
+from bubblerob_env.cli import add_env_arguments
 from policies.evaluation import DEFAULT_EVAL_SEED, evaluate, format_table, record_video
 
 __all__ = ["add_subcommands"]
 
 
-def _env_kwargs(text: str) -> dict[str, Any]:
-    try:
-        value = json.loads(text)
-    except json.JSONDecodeError as error:
-        raise argparse.ArgumentTypeError(f"--env-kwargs must be a JSON object: {error}") from error
-    if not isinstance(value, dict):
-        raise argparse.ArgumentTypeError(f"--env-kwargs must be a JSON object, got {text}")
-    return value
-
-
 def add_subcommands(subparsers: Any) -> None:
-    """Register ``evaluate``."""
+    """Register ``evaluate`` and ``demo``."""
     parser = subparsers.add_parser(
         "evaluate",
         help="evaluate policies on held-out seeds and print one table",
@@ -40,8 +30,7 @@ def add_subcommands(subparsers: Any) -> None:
     )
     parser.add_argument("--episodes", type=int, default=100, help="episodes per policy")
     parser.add_argument("--seed", type=int, default=DEFAULT_EVAL_SEED, help="first episode seed")
-    parser.add_argument("--env", default="BubbleRob-v0", help="env id")
-    parser.add_argument("--env-kwargs", type=_env_kwargs, default={}, help="gym.make kwargs, JSON")
+    add_env_arguments(parser)
     parser.add_argument("--markdown", action="store_true", help="print a Markdown table")
     parser.add_argument(
         "--video", type=Path, help="also write the first episode (seed SEED) as .mp4 or .gif"
@@ -69,6 +58,7 @@ def add_subcommands(subparsers: Any) -> None:
     demo.add_argument("--seed", type=int, default=DEFAULT_EVAL_SEED, help="first episode seed")
     demo.add_argument("--out", type=Path, default=Path("demo_output"), help="output folder")
     demo.add_argument("--no-video", action="store_true", help="skip the video")
+    add_env_arguments(demo)
     demo.set_defaults(handler=_run_demo)
 
 
@@ -118,9 +108,17 @@ def _run_demo(args: argparse.Namespace) -> int:
     from policies.demo import main_demo
 
     _usage("demo", args)
-    _check_policies("demo", [args.policy], "BubbleRob-v0", None)
+    _check_policies("demo", [args.policy], args.env, args.env_kwargs)
     try:
-        return main_demo(args.policy, args.episodes, args.seed, args.out, not args.no_video)
+        return main_demo(
+            args.policy,
+            args.episodes,
+            args.seed,
+            args.out,
+            not args.no_video,
+            env_id=args.env,
+            env_kwargs=args.env_kwargs,
+        )
     except OSError as error:  # an unwritable --out: the recorder or the video says where
         raise SystemExit(f"bubblerob demo: {error}") from None
 

@@ -41,8 +41,10 @@ def run_demo(
     out: Path = Path("demo_output"),
     video: bool = True,
     progress: bool = True,
+    env_id: str = "BubbleRob-v0",
+    env_kwargs: dict[str, Any] | None = None,
 ) -> DemoResult:
-    """Drive ``episodes`` episodes of ``BubbleRob-v0`` with the policy, recording a bag.
+    """Drive ``episodes`` episodes of the env (default ``BubbleRob-v0``) with the policy, recording.
 
     The bag (ROS 2 MCAP, Jazzy) and the video of the first episode replace those of an earlier
     demo in ``out``.
@@ -51,7 +53,7 @@ def run_demo(
 
     if episodes < 1:
         raise ValueError(f"episodes must be >= 1, got {episodes}")
-    env: gym.Env[Any, Any] = gym.make("BubbleRob-v0")
+    env: gym.Env[Any, Any] = gym.make(env_id, **(env_kwargs or {}))
     if video:  # frames drawn with NumPy (~1 ms), not MuJoCo's renderer (~50 ms on a CPU)
         env = TopDownView(env, 360, 360)
     policy = load_policy(policy_name, env)
@@ -83,9 +85,17 @@ def run_demo(
     return DemoResult(summarize(str(policy_name), stats), recorder.bag_paths[0], video_path)
 
 
-def main_demo(policy: str, episodes: int, seed: int, out: Path, video: bool) -> int:
+def main_demo(
+    policy: str,
+    episodes: int,
+    seed: int,
+    out: Path,
+    video: bool,
+    env_id: str = "BubbleRob-v0",
+    env_kwargs: dict[str, Any] | None = None,
+) -> int:
     """Run the demo and say where its outputs are."""
-    demo = run_demo(policy, episodes, seed, out, video)
+    demo = run_demo(policy, episodes, seed, out, video, env_id=env_id, env_kwargs=env_kwargs)
     print(format_table([demo.result]))
     print(f"bag:   {demo.bag}  (bubblerob info {demo.bag}; open in Foxglove or rosbags)")
     if demo.video is not None:

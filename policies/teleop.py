@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import curses
 import os
+import sys
 import time
 from typing import Any
 
@@ -144,18 +145,18 @@ def _drive(
 
 def _run_ros(args: argparse.Namespace) -> int:
     """``--ros 1|2``: drive a live node; one line and exit 2 if ROS cannot be reached."""
-    import sys
-
     from bubblerob_env.extras import require_extra
 
     require_extra("ros", f"bubblerob teleop --ros {args.ros}")
     from bubblerob_env.ros.live.backend import BackendError
     from policies.teleop_ros import RosLink, run_ros_teleop
 
-    if args.record is not None or args.start_pose is not None or args.num_obstacles is not None:
+    local = (args.record, args.start_pose, args.num_obstacles, args.env_kwargs or None)
+    if any(option is not None for option in local) or args.env != "BubbleRob-v0":
         print(
-            "bubblerob teleop: --record, --start-pose and --num-obstacles are for the local "
-            "simulation; with --ros give them to `bubblerob node` (--env, rosbag record)",
+            "bubblerob teleop: --record, --start-pose, --num-obstacles, --env and --env-kwargs "
+            "are for the local simulation; with --ros give them to `bubblerob node` (--env, "
+            "rosbag record)",
             file=sys.stderr,
         )
         return 2
@@ -185,19 +186,27 @@ def _run_ros(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     if args.ros is not None:
         return _run_ros(args)
-    kwargs: dict[str, Any] = {"action_type": "twist"}
+    from bubblerob_env.cli import make_env
+
+    kwargs: dict[str, Any] = {"action_type": "twist"}  # the keys drive speed and turn rate
     if args.start_pose is not None:
         kwargs["start_pose"] = tuple(args.start_pose)
     if args.num_obstacles is not None:
         kwargs["num_obstacles"] = tuple(args.num_obstacles)
-    env: gym.Env[Any, Any] = gym.make("BubbleRob-v0", **kwargs)
+    env: gym.Env[Any, Any] = make_env("teleop", args.env, args.env_kwargs, **kwargs)
     if args.record is not None:
         from bubblerob_env.extras import require_extra
 
         require_extra("ros", "bubblerob teleop --record")
         from bubblerob_env.ros import RosBagRecorder
 
-        env = RosBagRecorder(env, args.record, metadata={"policy": "teleop"})
+        try:
+            env = RosBagRecorder(env, args.record, metadata={"policy": "teleop"})
+        except FileExistsError:  # a usage error: exit 2
+            env.close()
+            message = f"bubblerob teleop: bag {args.record} already exists; --record another path"
+            print(message, file=sys.stderr)
+            raise SystemExit(2) from None
     try:
         info = curses.wrapper(run_teleop, env, args.seed, args.max_seconds)
     finally:
@@ -238,6 +247,9 @@ def add_subcommands(subparsers: Any) -> None:
     parser.add_argument(
         "--record", metavar="DIR", default=None, help="record the drive as a bag (ros extra)"
     )
+    from bubblerob_env.cli import add_env_arguments  # the command module imports this one
+
+    add_env_arguments(parser)
     parser.add_argument(
         "--ros",
         type=int,

@@ -1,4 +1,4 @@
-"""``bubblerob evaluate`` and ``demo``: a wrong policy or an unusable --out is one line, exit 1."""
+"""``bubblerob evaluate``, ``demo`` and ``teleop``: a wrong policy, env or --out is one line."""
 
 from __future__ import annotations
 
@@ -44,3 +44,43 @@ def test_an_unusable_demo_out_is_one_line(tmp_path):
     assert result.returncode == 1
     assert "Traceback" not in result.stderr, result.stderr
     assert result.stderr.startswith("bubblerob demo: ") and str(blocker) in result.stderr
+
+
+@pytest.mark.parametrize(
+    ("args", "says"),
+    [
+        (["demo", "--env-kwargs", '{"nosuch": 1}', "--no-video"], "unexpected keyword argument"),
+        (["demo", "--env", "NoSuch-v0", "--no-video"], "--env NoSuch-v0"),
+        (["teleop", "--env-kwargs", '{"action_type": "wheels"}'], "cannot set action_type"),
+        (["teleop", "--env-kwargs", '{"nosuch": 1}'], "unexpected keyword argument"),
+        (["teleop", "--ros", "1", "--env-kwargs", '{"arena_size": 3}'], "local simulation"),
+    ],
+)
+def test_a_bad_env_is_one_line_exit_2(args, says):
+    result = _bubblerob(*args)
+    assert result.returncode == 2, result.stderr
+    assert result.stderr.count("\n") == 1 and says in result.stderr, result.stderr
+    assert result.stderr.startswith(f"bubblerob {args[0]}: ")
+
+
+def test_demo_makes_the_env_its_env_kwargs_name(tmp_path):
+    kwargs = '{"arena_size": 3.0, "max_episode_steps": 20}'
+    result = _bubblerob(
+        "demo", "--policy", "laser", "--episodes", "1", "--no-video", "--env-kwargs", kwargs,
+        "--out", str(tmp_path),
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    row = result.stdout.splitlines()[1].split()
+    assert row[0] == "laser" and row[5] == "20"  # the time limit given, not the default 1000
+    info = _bubblerob("info", str(tmp_path / "bubblerob_demo_laser"))
+    assert info.returncode == 0 and "arena_size" in info.stdout and "3.0" in info.stdout
+
+
+def test_teleop_will_not_record_over_a_bag(tmp_path):
+    (tmp_path / "drive").mkdir()
+    result = _bubblerob("teleop", "--record", str(tmp_path / "drive"))
+    assert result.returncode == 2, result.stderr
+    assert (
+        result.stderr
+        == f"bubblerob teleop: bag {tmp_path / 'drive'} already exists; --record another path\n"
+    )
