@@ -220,14 +220,17 @@ def test_an_unfinished_bag_is_still_read_as_unfinished(bags, tmp_path):
     assert summary.unfinished and 1 <= len(summary.episodes) < EPISODES
 
 
-def test_a_sqlite3_topic_name_that_is_not_utf8_is_one_line_everywhere(bags, tmp_path, capsys):
+def test_sqlite3_text_that_is_not_utf8_is_one_line_everywhere(bags, tmp_path, capsys):
     bag = _copy(bags[("sqlite3", "none")], tmp_path)  # found by tests/ros/test_bag_fuzz.py
     file = storage_file(bag)
     data = bytearray(file.read_bytes())
     at = data.index(b"/leftMotorSpeed")
-    while at >= 0:  # the topics table, its index, the metadata: not UTF-8 in any of them
+    while at >= 0:  # in the topics table, its index, the metadata: SQLite's OperationalError
         data[at + 1] = 0xB9
         at = data.find(b"/leftMotorSpeed", at + 1)
+    # In the schema table's SQL: SQLite's own error message quotes the byte, and Python's sqlite3
+    # raises UnicodeDecodeError decoding it (the fuzz found this one).
+    data[data.index(b"CREATE TABLE schema") + 2] = 0xB9
     file.write_bytes(bytes(data))
     before = _digest(bag)
     for command in ("info", "replay", "recover"):

@@ -159,7 +159,7 @@ def _read_db3(path: Path, scan: Scan) -> str:
         db = sqlite3.connect(copy)
         try:
             return _read_rows(db, scan)
-        except (sqlite3.Error, UnicodeDecodeError) as error:  # a text column's bytes flipped
+        except (sqlite3.Error, UnicodeDecodeError) as error:  # sqlite3 decodes its own message
             if not scan.topics:  # not even its topics table reads
                 raise OSError(f"{path} is not a rosbag2 sqlite3 file: {error}") from None
             scan.damage = f"{path}: SQLite cannot read it past row {len(scan.messages)} ({error})"
