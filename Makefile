@@ -27,7 +27,7 @@ PIP_INPUTS := pyproject.toml
 TF2_INPUTS := pyproject.toml bubblerob_env/ros/live/ros2_msgs.py bubblerob_env/ros/messages/msg/tf2_msgs/TFMessage.msg
 TORCH_REPORT := $(VENV)/.torch-install-report.json
 
-.PHONY: help demo test demo-setup test-setup debs-demo debs-test venv venv-demo venv-all torch \
+.PHONY: help demo test demo-setup test-setup debs-demo debs-test venv venv-demo kernel venv-all torch \
 	venv-ros2 tf2-msgs
 
 help:
@@ -48,7 +48,7 @@ test: test-setup
 	source $(VENV)/bin/activate
 	python -m pytest $(PYTEST_ARGS)
 
-demo-setup: debs-demo venv venv-demo
+demo-setup: debs-demo venv venv-demo kernel
 test-setup: demo-setup debs-test torch venv-all venv-ros2 tf2-msgs
 
 # $(call apt_install,WHAT,PACKAGES): apt-get installs those of PACKAGES that are not installed.
@@ -81,6 +81,16 @@ venv:
 	else
 	  echo "setup: creating $(VENV)"
 	  $(PYTHON) -m venv $(VENV)
+	fi
+
+# The numba step kernel compiles on the first env step and is cached on disk: compile it here,
+# once, so that the demo's first step does not wait (a second run loads it from the cache).
+kernel: venv-demo
+	@if compgen -G "bubblerob_env/core/__pycache__/kernel.step_robots*.nbi" >/dev/null; then
+	  echo "setup: the step kernel is compiled (numba cache): skipped"
+	else
+	  echo "setup: compiling the step kernel (numba, once; cached in bubblerob_env/core/__pycache__)"
+	  $(VENV)/bin/python -m bubblerob_env.core
 	fi
 
 # .[all] includes .[demo]: either stamp will do.
