@@ -372,13 +372,13 @@ class TopDownRenderer:
         return self._rayed
 
     def _draw_dots(self, image: Image, points: Floats, colour: NDArray[np.uint8]) -> None:
-        """A 3x3 pixel square at each point."""
+        """A 3x3 pixel square at each point (none within a pixel of the image's edges)."""
         columns, rows = self._to_pixels(points)
-        offsets = np.array([-1, 0, 1])
-        columns = (columns[:, None, None] + offsets[None, None, :]).repeat(3, axis=1)
-        rows = (rows[:, None, None] + offsets[None, :, None]).repeat(3, axis=2)
-        columns, rows = self._inside(columns.ravel(), rows.ravel())
-        image[rows, columns] = colour
+        keep = (columns >= 1) & (columns < self.width - 1) & (rows >= 1) & (rows < self.height - 1)
+        centres = rows[keep] * self.width + columns[keep]
+        offsets = (np.arange(-1, 2)[:, None] * self.width + np.arange(-1, 2)).ravel()
+        pixel = np.dtype((np.void, 3))  # one RGB pixel: an index moves all three bytes
+        image.view(pixel).reshape(-1)[(centres[:, None] + offsets).ravel()] = colour.view(pixel)
 
     def _draw_heading(self, image: Image) -> None:
         """A line from the robot's centre along its +x, out to its front edge."""
