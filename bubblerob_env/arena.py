@@ -17,7 +17,7 @@ right wherever the body moves; only a size change has to be written into it.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import mujoco
@@ -31,8 +31,10 @@ __all__ = [
     "ROBOT_RADIUS",
     "ArenaLayout",
     "Obstacle",
+    "OBSTACLE_PALETTE",
     "ObstacleSlots",
     "build_model",
+    "colour_obstacles",
     "sample_layout",
 ]
 
@@ -46,16 +48,32 @@ _CAMERA_NEAR_CLIP = 0.005  # metres
 _PARKED_Z = -10.0  # unused obstacle slots wait below the floor, out of every ray's reach
 _MAX_TRIES = 200
 
+OBSTACLE_PALETTE: dict[str, tuple[float, float, float]] = {
+    "red": (0.85, 0.12, 0.12),
+    "yellow": (0.85, 0.8, 0.1),
+    "green": (0.15, 0.7, 0.2),
+    "cyan": (0.1, 0.7, 0.8),
+    "blue": (0.15, 0.25, 0.85),
+    "magenta": (0.8, 0.15, 0.75),
+}
+"""The colours :func:`colour_obstacles` draws from (RGB in [0, 1]), one per hue sextant: each is
+saturated (the walls' brown and the grey floor are not) and 60 degrees of hue from the next, so a
+camera pixel's hue names its colour under any shading the headlight gives."""
+
 
 @dataclass(frozen=True)
 class Obstacle:
-    """One obstacle. ``size`` is (radius,) for a cylinder, (half x, half y) for a box."""
+    """One obstacle. ``size`` is (radius,) for a cylinder, (half x, half y) for a box.
+
+    ``colour`` is a name in :data:`OBSTACLE_PALETTE`, or ``None``: the scene's obstacle material.
+    """
 
     kind: str
     x: float
     y: float
     yaw: float
     size: tuple[float, ...]
+    colour: str | None = None
 
     @property
     def bounding_radius(self) -> float:
@@ -153,6 +171,8 @@ class ObstacleSlots:
             self._free[kind] = slots
         # Half the obstacles' height: the scene's obstacle class, kept in the box slots' size[2].
         self.half_height = 0.0
+        self.placed: tuple[int, ...] = ()
+        """The geom id of each obstacle of the last :meth:`apply`, in the layout's order."""
         if max_obstacles:
             self.half_height = float(model.geom_size[self._free["box"][0][0]][2])
 
@@ -190,9 +210,14 @@ class ObstacleSlots:
             # The geom sits at its body's origin, so its box and the body's one BVH node agree.
             model.geom_aabb[gid] = (0.0, 0.0, 0.0, *half_extents)
             model.bvh_aabb[bvh] = (0.0, 0.0, 0.0, *half_extents)
+            # A geom rgba other than MuJoCo's default grey overrides its material's colour;
+            # uncoloured obstacles leave it alone (the material shows, as before colours).
+            if obstacle.colour is not None:
+                model.geom_rgba[gid, :3] = OBSTACLE_PALETTE[obstacle.colour]
         for slots in free.values():
             for _, mocap, _ in slots:
                 data.mocap_pos[mocap] = (0.0, 0.0, _PARKED_Z)
+        self.placed = tuple(used)
         parked = sorted(set(self.geom_ids) - set(used))
         # Alpha 0 keeps parked slots out of every rendered scene (they cost ~40% of a camera
         # frame otherwise); rays test the obstacle material's alpha, so used slots stay visible.
@@ -251,6 +276,21 @@ def sample_layout(
                 obstacles.append(candidate)
                 break
     return ArenaLayout(tuple(obstacles), start_pose)
+
+
+def colour_obstacles(rng: np.random.Generator, layout: ArenaLayout) -> ArenaLayout:
+    """``layout`` with each obstacle given a colour drawn uniformly from :data:`OBSTACLE_PALETTE`.
+
+    One draw per obstacle from ``rng``, made after :func:`sample_layout`'s, so the layout itself
+    is the one the same generator gives without colours.
+    """
+    names_ = tuple(OBSTACLE_PALETTE)
+    picks = rng.integers(len(names_), size=len(layout.obstacles))
+    obstacles = tuple(
+        replace(obstacle, colour=names_[int(pick)])
+        for obstacle, pick in zip(layout.obstacles, picks, strict=True)
+    )
+    return replace(layout, obstacles=obstacles)
 
 
 def _distance(a: Obstacle, b: Obstacle) -> float:

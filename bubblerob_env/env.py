@@ -22,9 +22,11 @@ from bubblerob_env.arena import (
     ArenaLayout,
     ObstacleSlots,
     build_model,
+    colour_obstacles,
     sample_layout,
 )
 from bubblerob_env.checks import (
+    check_bool,
     check_bounded,
     check_choice,
     check_env_arguments,
@@ -125,7 +127,12 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
     Each ``reset(seed=...)`` draws ``num_obstacles`` cylinders and boxes (radius / half sides in
     ``obstacle_size``) at free positions, and a start pose at least ``start_clearance`` metres from
     everything, with a uniform random heading; or uses ``start_pose`` when given. The robot starts
-    at rest. A scene given by ``xml_file`` is used as is, plus the random obstacles.
+    at rest. A scene given by ``xml_file`` is used as is, plus the random obstacles. With
+    ``obstacle_colours=True`` each obstacle also gets a colour from
+    :data:`~bubblerob_env.arena.OBSTACLE_PALETTE` (``layout.obstacles[i].colour``), drawn from the
+    episode's generator after the layout, so the layout is the one the seed gives without colours
+    (later draws, such as laser noise, shift); off (the default), nothing is drawn and episodes
+    are bit for bit those without the kwarg.
 
     ## Episode End
     Terminates when the robot touches a wall or obstacle (if ``terminate_on_collision``): any
@@ -144,6 +151,8 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
     See ``__init__`` for each one's meaning.
 
     ## Version History
+    - v0 (2026-11-25, issue #28): new kwarg ``obstacle_colours`` (default ``False``: episodes and
+      recorded bags unchanged) for the camera's recognition task (:mod:`bubblerob_env.vision`).
     - v0 (2026-11-25 revision): the step runs in a numba kernel (``bubblerob_env.core``) and the
       laser in an exact analytic caster where the scene allows it; episodes are bit for bit
       those of the previous revision (compared on 6017 steps over five configurations, and
@@ -199,6 +208,7 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
         arena_size: float = 4.0,
         num_obstacles: tuple[int, int] = (4, 10),
         obstacle_size: tuple[float, float] = (0.08, 0.25),
+        obstacle_colours: bool = False,
         start_clearance: float = 0.25,
         start_pose: tuple[float, float, float] | None = None,
         forward_reward_weight: float = 1.0,
@@ -252,6 +262,8 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
             arena_size: Inside side length of the square arena (m).
             num_obstacles: Inclusive range of the number of obstacles per episode.
             obstacle_size: Range of obstacle radius / half side (m).
+            obstacle_colours: Paint each obstacle a colour drawn from the palette (see Starting
+                State); ``False`` keeps the scene's obstacle material.
             start_clearance: Minimum free space around the robot at the start (m).
             start_pose: Fixed start ``(x, y, yaw)``; default: random each reset.
             forward_reward_weight: Weight of the forward-speed reward.
@@ -288,6 +300,7 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
         check_choice("obs_mode", obs_mode, OBS_MODES)
         self.odometry_noise = check_bounded("odometry_noise", odometry_noise, 0.0, 1.0)
         self.obs_mode = obs_mode
+        self.obstacle_colours = check_bool("obstacle_colours", obstacle_colours)
         lo, hi = num_obstacles
         obstacle_size = (float(obstacle_size[0]), float(obstacle_size[1]))
 
@@ -544,6 +557,8 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
             self.start_clearance,
             self.start_pose,
         )
+        if self.obstacle_colours:
+            self.layout = colour_obstacles(self.np_random, self.layout)
         mujoco.mj_resetData(self.model, self.data)
         self._slots.apply(self.model, self.data, self.layout.obstacles)
         x, y, yaw = self.layout.start_pose
