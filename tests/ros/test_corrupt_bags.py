@@ -238,3 +238,29 @@ def test_sqlite3_text_that_is_not_utf8_is_one_line_everywhere(bags, tmp_path, ca
         err = capsys.readouterr().err
         assert done == 2 and _one_line(err).startswith(f"bubblerob {command}: "), err
     assert _digest(bag) == before
+
+
+def _ros1_chunk_offsets(data: bytes) -> list[int]:
+    """Where each chunk record starts (ROS 1 bag format 2.0: header length, header, data length,
+    data; a chunk's header holds the field ``op=\\x05``)."""
+    offsets, pos = [], len(b"#ROSBAG V2.0\n")
+    while pos + 4 <= len(data):
+        header_len = int.from_bytes(data[pos : pos + 4], "little")
+        header = data[pos + 4 : pos + 4 + header_len]
+        data_len = int.from_bytes(data[pos + 4 + header_len : pos + 8 + header_len], "little")
+        if b"op=\x05" in header:
+            offsets.append(pos)
+        pos += 8 + header_len + data_len
+    return offsets
+
+
+def test_a_ros1_chunk_length_running_past_the_end_is_corrupt_not_unfinished(bags, tmp_path, capsys):
+    bag = _copy(bags[("ros1", "none")], tmp_path)
+    data = bytearray(bag.read_bytes())
+    record = _ros1_chunk_offsets(bytes(data))[-1]
+    header_len = int.from_bytes(data[record : record + 4], "little")
+    data[record + 4 + header_len + 3] = 0x7F  # the chunk's data length: about 2 GB
+    bag.write_bytes(bytes(data))
+    assert cli.main(["info", str(bag)]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert f"corrupt bag: {bag}: the record at byte {record} runs past the end of the file" in line

@@ -156,7 +156,7 @@ def scan_ros1(path: Path) -> Scan:
     scan, chunks = Scan(), 0
     for record in _records(data, len(MAGIC)):
         if isinstance(record, int):
-            scan.cut_short = True
+            scan.cut_short, scan.cut_at = True, record
             break
         offset, header, body = record
         what = f"record at byte {offset}"

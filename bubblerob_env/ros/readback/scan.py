@@ -21,6 +21,8 @@ class Scan:
     """The first damaged record in words (file and byte offset), or ``None``."""
     cut_short: bool = False
     """The file ends inside a record (a killed recording)."""
+    cut_at: int | None = None
+    """Where the record that runs past the end of the file starts, when ``cut_short``."""
     data_end: bool = False
     """The end of the data section was reached (MCAP's ``DataEnd``, a ROS 1 bag's index)."""
 

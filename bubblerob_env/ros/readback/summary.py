@@ -25,7 +25,7 @@ from bubblerob_env.ros.readback.layout import (
 )
 from bubblerob_env.ros.readback.mcap_scan import check_mcap_crcs
 from bubblerob_env.ros.readback.ros1_scan import index_position
-from bubblerob_env.ros.readback.scan import CorruptBagError
+from bubblerob_env.ros.readback.scan import CorruptBagError, Scan
 from bubblerob_env.ros.readback.unfinished import read_unfinished, scan_bag
 
 __all__ = [
@@ -123,10 +123,7 @@ def locate_damage(root: Path, error: BaseException) -> str:
         if file.suffix == ".mcap":
             found = check_mcap_crcs(file) or scan_bag(root)[1].damage
         elif file.suffix == ".bag":
-            found = scan_bag(root)[1].damage or (
-                f"{root}: its index (from byte {index_position(root)}) is damaged: "
-                f"{type(error).__name__}: {error}"
-            )
+            found = _ros1_damage(root, scan_bag(root)[1], error)
         else:
             found = None
     except OSError as scan_error:
@@ -134,12 +131,26 @@ def locate_damage(root: Path, error: BaseException) -> str:
     return found or f"{root}: {type(error).__name__}: {error}"
 
 
+def _ros1_damage(root: Path, scan: Scan, error: BaseException) -> str:
+    """Where a finished ROS 1 bag that rosbags cannot read is damaged."""
+    if scan.damage is not None:
+        return scan.damage
+    index = index_position(root)
+    if scan.cut_at is not None and scan.cut_at < index:  # the index is after it: a bad length
+        return (
+            f"{root}: the record at byte {scan.cut_at} runs past the end of the file, before "
+            f"the index at byte {index} (its length is damaged)"
+        )
+    return f"{root}: its index (from byte {index}) is damaged: {type(error).__name__}: {error}"
+
+
 def _cut_short_in_its_index(root: Path) -> bool:
     """A finished ROS 1 bag whose file ends inside its index: its data is whole."""
     if root.suffix != ".bag":
         return False
     scan = scan_bag(root)[1]
-    return scan.damage is None and scan.cut_short
+    # Cut inside the index, not before it: a length flipped in a chunk runs past the end too.
+    return scan.damage is None and scan.cut_at is not None and scan.cut_at >= index_position(root)
 
 
 @contextmanager
