@@ -53,7 +53,9 @@ def add_subcommands(subparsers: Any) -> None:
         description="Run a policy (default: the shipped PPO) for a few episodes, print its "
         "evaluation table, record the episodes as an MCAP bag and write a video.",
     )
-    demo.add_argument("--policy", default="ppo", help="ppo, laser, reactive, an .onnx or a .zip")
+    demo.add_argument(
+        "--policy", default="ppo", help="ppo, laser, reactive, random, an .onnx or an SB3 .zip"
+    )
     demo.add_argument("--episodes", type=int, default=3, help="episodes to drive and record")
     demo.add_argument("--seed", type=int, default=DEFAULT_EVAL_SEED, help="first episode seed")
     demo.add_argument("--out", type=Path, default=Path("demo_output"), help="output folder")
