@@ -264,3 +264,16 @@ def test_a_ros1_chunk_length_running_past_the_end_is_corrupt_not_unfinished(bags
     assert cli.main(["info", str(bag)]) == 2
     line = _one_line(capsys.readouterr().err)
     assert f"corrupt bag: {bag}: the record at byte {record} runs past the end of the file" in line
+
+
+@pytest.mark.parametrize("compression", ["none", "bz2"])
+def test_a_finished_ros1_bag_cut_inside_its_index_reads_every_episode(bags, tmp_path, compression):
+    bag = _copy(bags[("ros1", compression)], tmp_path)
+    data = bag.read_bytes()
+    chunks = _ros1_chunk_offsets(data)
+    index_at = int.from_bytes(data[data.index(b"index_pos=") + 10 :][:8], "little")
+    assert chunks[-1] < index_at < len(data)
+    bag.write_bytes(data[: (index_at + len(data)) // 2])  # the index half there
+    summary = read_summary(bag)
+    assert summary.unfinished and len(summary.episodes) == EPISODES
+    assert replay_bag(bag).ok

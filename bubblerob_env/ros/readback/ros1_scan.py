@@ -18,7 +18,7 @@ from pathlib import Path
 
 from bubblerob_env.ros.readback.scan import CorruptBagError, Scan
 
-__all__ = ["MAGIC", "index_position", "scan_ros1"]
+__all__ = ["MAGIC", "index_is_cut_short", "index_position", "scan_ros1"]
 
 MAGIC = b"#ROSBAG V2.0\n"
 _OP_MESSAGE, _OP_BAG_HEADER, _OP_INDEX, _OP_CHUNK, _OP_CHUNK_INFO, _OP_CONNECTION = 2, 3, 4, 5, 6, 7
@@ -140,6 +140,13 @@ def index_position(path: Path) -> int:
             ) from None
         return int(position)
     raise CorruptBagError(f"{path}: the bag ends after its first line (no bag header record)")
+
+
+def index_is_cut_short(path: Path) -> bool:
+    """Whether the file ends inside a record of its index (a finished bag cut short there)."""
+    start = index_position(path)
+    data = path.read_bytes()
+    return 0 < start < len(data) and any(isinstance(r, int) for r in _records(data, start))
 
 
 def scan_ros1(path: Path) -> Scan:

@@ -24,7 +24,7 @@ from bubblerob_env.ros.readback.layout import (
     storage_file,
 )
 from bubblerob_env.ros.readback.mcap_scan import check_mcap_crcs
-from bubblerob_env.ros.readback.ros1_scan import index_position
+from bubblerob_env.ros.readback.ros1_scan import index_is_cut_short, index_position
 from bubblerob_env.ros.readback.scan import CorruptBagError, Scan
 from bubblerob_env.ros.readback.unfinished import read_unfinished, scan_bag
 
@@ -148,9 +148,8 @@ def _cut_short_in_its_index(root: Path) -> bool:
     """A finished ROS 1 bag whose file ends inside its index: its data is whole."""
     if root.suffix != ".bag":
         return False
-    scan = scan_bag(root)[1]
     # Cut inside the index, not before it: a length flipped in a chunk runs past the end too.
-    return scan.damage is None and scan.cut_at is not None and scan.cut_at >= index_position(root)
+    return index_is_cut_short(root) and scan_bag(root)[1].damage is None
 
 
 @contextmanager
