@@ -1,0 +1,218 @@
+"""A classical recogniser for the forward camera: the obstacles and walls in an RGB frame.
+
+Pipeline (see :mod:`~bubblerob_env.vision.segment` for the pixel work):
+
+1. Colour segmentation: a saturated pixel takes the nearest palette hue, a brown one the walls'.
+2. Connected components of equal codes (walls also split by brightness: one flat face each).
+3. Class from shading: the headlight shines along the optical axis, so a flat box face has one
+   brightness while a cylinder's curved side changes from column to column. A component with at
+   most two brightness levels is a box (a box shows one or two faces), one with more a cylinder.
+4. Bearing from the silhouette's edges: the two tangents from the camera to a cylinder are
+   symmetric about its axis, so its bearing is the mean of the edges' bearings (for a box, an
+   estimate of its centre's).
+5. Distance from the ground contact: the camera is level at a known height, so the silhouette's
+   lowest row gives the depth of the nearest point of its base (or, when the frame cuts the base
+   off, the top row and the obstacles' known height); half the apparent width is added for the
+   depth of the axis.
+
+It needs obstacles in the palette's colours (``obstacle_colours=True``); the default material's
+blue counts as the palette's blue.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bubblerob_env import names
+from bubblerob_env.arena import OBSTACLE_PALETTE
+from bubblerob_env.sensors import CameraSpec
+from bubblerob_env.vision.geometry import CameraPose, column_to_bearing
+from bubblerob_env.vision.segment import components, pixel_codes
+
+__all__ = ["Detection", "Recogniser"]
+
+MAX_BOX_LEVELS = 2
+
+
+@dataclass(frozen=True)
+class Detection:
+    """One recognised object; fields as in :class:`.ground_truth.LabelledObject`.
+
+    ``colour`` is the palette name (``None`` for walls); ``truncated``: the box touches the frame's
+    left or right edge, so part of the object may be outside the view: a cylinder's bearing then
+    comes from its one edge and its shading, a box's is the visible part's.
+    """
+
+    kind: str
+    colour: str | None
+    box: tuple[int, int, int, int]
+    pixels: int
+    bearing: float
+    distance: float
+    truncated: bool
+
+    @property
+    def bearing_deg(self) -> float:
+        """``bearing`` in degrees."""
+        return math.degrees(self.bearing)
+
+
+def _hue_of(rgb: tuple[float, float, float]) -> float:
+    r, g, b = rgb
+    high, low = max(rgb), min(rgb)
+    spread = high - low
+    if high == r:
+        hue = 60.0 * ((g - b) / spread)
+    elif high == g:
+        hue = 60.0 * ((b - r) / spread + 2.0)
+    else:
+        hue = 60.0 * ((r - g) / spread + 4.0)
+    return hue % 360.0
+
+
+class Recogniser:
+    """Finds obstacles and walls in frames of a level camera ``spec`` at ``camera_height`` metres.
+
+    ``obstacle_height`` (m) is used where a frame cuts an obstacle's base off.
+    ``min_pixels`` drops smaller components.
+    """
+
+    def __init__(
+        self,
+        spec: CameraSpec,
+        camera_height: float,
+        obstacle_height: float,
+        min_pixels: int = 8,
+    ) -> None:
+        self.spec = spec
+        self.camera_height = camera_height
+        self.obstacle_height = obstacle_height
+        self.min_pixels = min_pixels
+        self._colours = tuple(OBSTACLE_PALETTE)
+        self._hues = np.array([_hue_of(OBSTACLE_PALETTE[c]) for c in self._colours])
+        self._wall_code = len(self._colours) + 1
+
+    @classmethod
+    def for_env(cls, env: Any, min_pixels: int = 8) -> Recogniser:
+        """One for the camera of ``env`` (a ``BubbleRobEnv``, unwrapped, after a reset)."""
+        # The arena's floor is the plane z = 0; every obstacle slot has the obstacles' height.
+        camera_height = CameraPose.of(env.model, env.data).z
+        box_slot = env.model.geom(f"{names.BOX_SLOT_PREFIX}0").id
+        obstacle_height = 2.0 * float(env.model.geom_size[box_slot][2])
+        return cls(env.camera_spec, camera_height, obstacle_height, min_pixels)
+
+    def __call__(self, frame: NDArray[np.uint8]) -> list[Detection]:
+        """The objects in ``frame`` (``(height, width, 3)`` uint8 RGB), largest first."""
+        if frame.shape != (self.spec.height, self.spec.width, 3):
+            raise ValueError(
+                f"frame shape {frame.shape} is not the camera's "
+                f"({self.spec.height}, {self.spec.width}, 3)"
+            )
+        codes, value = pixel_codes(np.ascontiguousarray(frame), self._hues)
+        labels, found, stats, levels = components(codes, value, self._wall_code)
+        detections = []
+        walls: dict[int, list[NDArray[np.int64]]] = {}
+        for index, (code, stat, level) in enumerate(
+            zip(found.tolist(), stats, levels, strict=True)
+        ):
+            if code == self._wall_code:
+                # A wall broken up by an obstacle in front keeps its one brightness.
+                walls.setdefault(int(np.argmax(level)), []).append(stat)
+                continue
+            if stat[0] < self.min_pixels:
+                continue
+            kind = "box" if int(level.sum()) <= MAX_BOX_LEVELS else "cylinder"
+            bright = math.nan
+            if kind == "cylinder" and (stat[1] == 0 or stat[3] == self.spec.width - 1):
+                bright = _bright_column(labels, value, index)
+            detections.append(self._detection(kind, self._colours[code - 1], stat, bright))
+        for parts in walls.values():
+            merged = np.array(
+                [
+                    sum(int(p[0]) for p in parts),
+                    min(int(p[1]) for p in parts),
+                    min(int(p[2]) for p in parts),
+                    max(int(p[3]) for p in parts),
+                    max(int(p[4]) for p in parts),
+                ]
+            )
+            if merged[0] >= self.min_pixels:
+                detections.append(self._detection("wall", None, merged, math.nan))
+        detections.sort(key=lambda d: -d.pixels)
+        return detections
+
+    def _near_depth(self, v_min: int, v_max: int) -> float:
+        """Depth of the nearest point of an object's base from its rows (NaN: both cut off)."""
+        height, focal = self.spec.height, self.spec.focal_length
+        centre_row = (height - 1) / 2.0
+        if v_max < height - 1 and v_max + 0.5 > centre_row:
+            return focal * self.camera_height / (v_max + 0.5 - centre_row)
+        if v_min > 0 and centre_row > v_min - 0.5:
+            rise = self.obstacle_height - self.camera_height
+            return focal * rise / (centre_row - (v_min - 0.5))
+        return math.nan
+
+    def _detection(
+        self, kind: str, colour: str | None, stat: NDArray[np.int64], bright_column: float
+    ) -> Detection:
+        pixels, u_min, v_min, u_max, v_max = (int(s) for s in stat)
+        width, focal = self.spec.width, self.spec.focal_length
+        # A pixel is drawn when its centre is inside: the edges lie half a pixel outside.
+        left = column_to_bearing(u_min - 0.5, width, focal)
+        right = column_to_bearing(u_max + 0.5, width, focal)
+        truncated = u_min == 0 or u_max == width - 1
+        depth = self._near_depth(v_min, v_max)
+        if kind == "wall":
+            bearing = (left + right) / 2.0
+            return Detection(
+                kind, colour, (u_min, v_min, u_max, v_max), pixels, bearing,
+                depth / math.cos(bearing), truncated,
+            )  # fmt: skip
+        if (
+            truncated
+            and kind == "cylinder"
+            and u_min != u_max
+            and not (u_min == 0 and u_max == width - 1)
+        ):
+            edge = left if u_max == width - 1 else right
+            bright = column_to_bearing(bright_column, width, focal)
+            bearing, distance = _cylinder_from_edge(depth, bright, edge, edge == left)
+        else:
+            bearing = (left + right) / 2.0
+            # Depth of the axis: the nearest point plus half the width seen at that depth.
+            depth += (math.tan(left) - math.tan(right)) * depth / 2.0
+            distance = depth / math.cos(bearing)
+        return Detection(
+            kind, colour, (u_min, v_min, u_max, v_max), pixels, bearing, distance, truncated
+        )
+
+
+def _bright_column(labels: NDArray[np.int32], value: NDArray[np.uint8], label: int) -> float:
+    """Mean column of a component's brightest pixels."""
+    rows, cols = np.nonzero(labels == label)
+    levels = value[rows, cols]
+    return float(cols[levels == levels.max()].mean())
+
+
+def _cylinder_from_edge(
+    near_depth: float, bright: float, edge: float, left_edge: bool
+) -> tuple[float, float]:
+    """Bearing and distance of a cylinder's axis from one silhouette edge and its brightest column.
+
+    The headlight shines along the optical axis, so the brightest point of the side is the one
+    whose normal faces straight back: it has the axis's lateral offset and the base's nearest
+    depth. The axis ``(near_depth + r, lateral)`` is then ``r`` from the edge's tangent ray.
+    """
+    lateral = near_depth * math.tan(bright)
+    # Signed distance of the centre from the ray (positive when the ray passes to its left).
+    side = -1.0 if left_edge else 1.0
+    radius = (lateral * math.cos(edge) - near_depth * math.sin(edge)) / (math.sin(edge) + side)
+    if not math.isfinite(radius) or radius <= 0.0:
+        return bright, near_depth / math.cos(bright)
+    depth = near_depth + radius
+    return math.atan2(lateral, depth), math.hypot(lateral, depth)
