@@ -32,6 +32,10 @@ __all__ = [
     "OUT_SIZE",
     "PTR",
     "PTR_SIZE",
+    "Outputs",
+    "RobotState",
+    "Settings",
+    "Tables",
     "observe_robots",
     "step_robots",
 ]
@@ -299,38 +303,43 @@ def _reward(
     out[OUT.REWARD] = 0.0 + forward + spin + clearance + collision
 
 
+Tables = tuple[NDArray[np.uint8], NDArray[np.int32], NDArray[np.float64], NDArray[np.uint8]]
+"""Per geom: is it a wall or obstacle, its type; the rays' local directions; the group mask."""
+Settings = tuple[NDArray[np.int64], NDArray[np.float64]]
+"""The integer and float settings (:class:`ICFG`, :class:`CFG`)."""
+RobotState = tuple[
+    NDArray[np.int32],
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.float64],
+    NDArray[np.int32],
+]
+"""Per robot: its laser-visible geoms (padded with -1), its laser noise for this scan, and
+scratch rows of ray directions, distances and geom ids."""
+Outputs = tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.float32], NDArray[np.float64]]
+"""Per robot: laser, proximity and velocity readings, and the :class:`OUT` columns."""
+
+
 @njit(cache=True, nogil=True)
 def step_robots(
     robots: NDArray[np.int64],
     ptrs: NDArray[np.uint64],
     actions: NDArray[np.float64],
-    icfg: NDArray[np.int64],
-    cfg: NDArray[np.float64],
-    tables: tuple[NDArray[np.uint8], NDArray[np.int32], NDArray[np.float64], NDArray[np.uint8]],
-    cast_geoms: NDArray[np.int32],
-    noise: NDArray[np.float64],
-    scratch: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int32]],
-    laser: NDArray[np.float32],
-    proximity: NDArray[np.float32],
-    velocity: NDArray[np.float32],
-    out: NDArray[np.float64],
+    settings: Settings,
+    tables: Tables,
+    state: RobotState,
+    outputs: Outputs,
 ) -> None:  # pragma: no cover - numba
-    """Step ``robots`` (indices into every per-robot array) by one control step each.
-
-    ``tables``: ``is_obstacle`` per geom, ``geom_type`` per geom, the laser's local ray
-    directions and the laser's geom-group mask. ``cast_geoms[i]``: robot ``i``'s laser-visible
-    geoms for the analytic caster, padded with -1. ``scratch``: one row of ray directions,
-    distances and geom ids per robot.
-    """
+    """Step ``robots`` (indices into every per-robot array) by one control step each."""
+    icfg, cfg = settings
+    out, velocity = outputs[3], outputs[2]
     for i in robots:
         row = out[i]
         _wheel_command(actions[i], cfg, icfg[ICFG.TWIST] != 0, row)
         ctrl = _f64(ptrs[i, PTR.CTRL], 2)
         ctrl[0], ctrl[1] = row[OUT.WHEEL_COMMAND], row[OUT.WHEEL_COMMAND + 1]
         _physics(ptrs[i], icfg, tables[0], row)
-        nearest = _sense(
-            i, ptrs, icfg, cfg, tables, cast_geoms, noise, scratch, laser, proximity, velocity, out
-        )
+        nearest = _sense(i, ptrs, settings, tables, state, outputs)
         _reward(nearest, velocity[i], cfg, row)
 
 
@@ -338,43 +347,32 @@ def step_robots(
 def observe_robots(
     robots: NDArray[np.int64],
     ptrs: NDArray[np.uint64],
-    icfg: NDArray[np.int64],
-    cfg: NDArray[np.float64],
-    tables: tuple[NDArray[np.uint8], NDArray[np.int32], NDArray[np.float64], NDArray[np.uint8]],
-    cast_geoms: NDArray[np.int32],
-    noise: NDArray[np.float64],
-    scratch: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int32]],
-    laser: NDArray[np.float32],
-    proximity: NDArray[np.float32],
-    velocity: NDArray[np.float32],
-    out: NDArray[np.float64],
+    settings: Settings,
+    tables: Tables,
+    state: RobotState,
+    outputs: Outputs,
 ) -> None:  # pragma: no cover - numba
     """The sensors and ``info`` numbers of ``robots`` in their current state (after a reset)."""
+    icfg = settings[0]
     for i in robots:
-        out[i, OUT.SIM_TIME] = _f64(ptrs[i, PTR.DATA] + icfg[ICFG.TIME], 1)[0]
-        _sense(
-            i, ptrs, icfg, cfg, tables, cast_geoms, noise, scratch, laser, proximity, velocity, out
-        )
+        outputs[3][i, OUT.SIM_TIME] = _f64(ptrs[i, PTR.DATA] + icfg[ICFG.TIME], 1)[0]
+        _sense(i, ptrs, settings, tables, state, outputs)
 
 
 @njit(cache=True, nogil=True)
 def _sense(
     i: int,
     ptrs: NDArray[np.uint64],
-    icfg: NDArray[np.int64],
-    cfg: NDArray[np.float64],
-    tables: tuple[NDArray[np.uint8], NDArray[np.int32], NDArray[np.float64], NDArray[np.uint8]],
-    cast_geoms: NDArray[np.int32],
-    noise: NDArray[np.float64],
-    scratch: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int32]],
-    laser: NDArray[np.float32],
-    proximity: NDArray[np.float32],
-    velocity: NDArray[np.float32],
-    out: NDArray[np.float64],
+    settings: Settings,
+    tables: Tables,
+    state: RobotState,
+    outputs: Outputs,
 ) -> float:  # pragma: no cover - numba
     """Robot ``i``'s observation; returns the reading the clearance cost uses."""
+    icfg, cfg = settings
     is_obstacle, geom_type, local_dirs, geomgroup = tables
-    dirs, dist, geomid = scratch
+    cast_geoms, noise, dirs, dist, geomid = state
+    laser, proximity, velocity, out = outputs
     _observe(ptrs[i], icfg, cfg, proximity[i], velocity[i], out[i])
     if not icfg[ICFG.LASER]:
         return float(proximity[i, 0])

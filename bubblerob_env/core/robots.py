@@ -25,6 +25,10 @@ from bubblerob_env.core.kernel import (
     OUT_SIZE,
     PTR,
     PTR_SIZE,
+    Outputs,
+    RobotState,
+    Settings,
+    Tables,
     observe_robots,
     step_robots,
 )
@@ -41,8 +45,6 @@ LASER_BACKENDS = ("auto", "analytic", "mujoco")
 """``laser_backend`` values: the analytic caster where the scene allows it (``auto``), always
 (``analytic``: an error where it cannot), or MuJoCo's ``mj_multiRay`` (``mujoco``)."""
 _UPRIGHT_TOLERANCE = 1e-9
-Tables = tuple[NDArray[np.uint8], NDArray[np.int32], NDArray[np.float64], NDArray[np.uint8]]
-"""Per geom: is it a wall or obstacle, its type; the rays' local directions; the group mask."""
 _WARNINGS = mujoco.mjtWarning
 
 
@@ -98,12 +100,20 @@ class RobotBatch:
         self._laser_geoms = laser_geoms(model)
         self.cast_geoms = np.full((n, max(1, self._laser_geoms.size)), -1, dtype=np.int32)
         self.noise = np.zeros((n, nray))
-        self.scratch = (np.zeros((n, nray, 3)), np.zeros((n, nray)), np.zeros((n, nray), np.int32))
         self.actions = np.zeros((n, 2))
         self.laser = np.zeros((n, nray), dtype=np.float32)
         self.proximity = np.zeros((n, 1), dtype=np.float32)
         self.velocity = np.zeros((n, 2), dtype=np.float32)
         self.out = np.zeros((n, OUT_SIZE))
+        self.settings: Settings = (self.icfg, self.cfg)
+        self.state: RobotState = (
+            self.cast_geoms,
+            self.noise,
+            np.zeros((n, nray, 3)),  # scratch: ray directions, distances, geom ids
+            np.zeros((n, nray)),
+            np.zeros((n, nray), np.int32),
+        )
+        self.outputs: Outputs = (self.laser, self.proximity, self.velocity, self.out)
         self.all_robots = np.arange(n, dtype=np.int64)
         for i, env in enumerate(envs):
             self.bind(i, env.model, env.data)
@@ -141,37 +151,12 @@ class RobotBatch:
     def step(self, robots: NDArray[np.int64]) -> None:
         """One control step of ``robots`` with the actions in ``self.actions`` (GIL released)."""
         step_robots(
-            robots,
-            self.ptrs,
-            self.actions,
-            self.icfg,
-            self.cfg,
-            self.tables,
-            self.cast_geoms,
-            self.noise,
-            self.scratch,
-            self.laser,
-            self.proximity,
-            self.velocity,
-            self.out,
+            robots, self.ptrs, self.actions, self.settings, self.tables, self.state, self.outputs
         )
 
     def observe(self, robots: NDArray[np.int64]) -> None:
         """Sensors and ``info`` numbers of ``robots`` as they are (after a reset)."""
-        observe_robots(
-            robots,
-            self.ptrs,
-            self.icfg,
-            self.cfg,
-            self.tables,
-            self.cast_geoms,
-            self.noise,
-            self.scratch,
-            self.laser,
-            self.proximity,
-            self.velocity,
-            self.out,
-        )
+        observe_robots(robots, self.ptrs, self.settings, self.tables, self.state, self.outputs)
 
 
 def _tables(model: mujoco.MjModel, spec: LaserSpec | None) -> Tables:
