@@ -3,12 +3,13 @@
 Usage: ``python bench/ray_evaluate.py [--episodes 200] [--policy ppo] [--cpus 2] [--quick]``
 
 Runs itself in a new network namespace with only loopback up (``unshare -n``; Ray binds the
-machine's address otherwise). Three times are reported: the serial run
-(:func:`policies.evaluation.evaluate`), the cluster's start-up (``ray.init`` of a local cluster
-of ``--cpus`` CPUs) and the Ray run once the cluster is up (:func:`evaluate_on_ray`: task
-submission, the workers' first imports, the episodes); the speed-up is given both without and
-with the start-up. The two tables must be equal (the script fails otherwise). The load average
-before and after is printed: other work on the machine takes CPUs from both runs.
+machine's address otherwise). Three times are reported: the serial run (one env and policy, the
+loop of :func:`policies.evaluation.evaluate`), the cluster's start-up (``ray.init`` of a local
+cluster of ``--cpus`` CPUs) and the Ray run once the cluster is up (:func:`evaluate_on_ray`:
+task submission, the workers' first imports, the episodes); the speed-up is given both without
+and with the start-up. The two take turns on ``--rounds`` blocks of seeds, the order swapped each
+round, so that both see the same background load; their episodes must be equal (the script fails
+otherwise). The load average before and after is printed.
 """
 
 from __future__ import annotations
@@ -36,28 +37,54 @@ def _load() -> str:
     return "/".join(f"{value:.2f}" for value in os.getloadavg())
 
 
-def measure(policy: str, episodes: int, cpus: int, env_kwargs: dict[str, Any]) -> dict[str, Any]:
-    """Serial, start-up and Ray seconds; the two tables (which must be equal)."""
+def measure(
+    policy: str, episodes: int, cpus: int, env_kwargs: dict[str, Any], rounds: int
+) -> dict[str, Any]:
+    """Serial, start-up and Ray seconds over ``rounds`` alternating blocks of seeds.
+
+    Serial and Ray take turns on consecutive blocks of seeds (the order swapped every round), so
+    both see the same background load. Every episode of the two must be equal.
+    """
+    import gymnasium as gym
     import ray
 
     from policies.distributed import evaluate_on_ray
-    from policies.evaluation import evaluate
+    from policies.evaluation import run_episode
+    from policies.loading import load_policy
 
-    start = time.perf_counter()
-    serial = evaluate(policy, episodes, 1000, env_kwargs=env_kwargs)
-    serial_s = time.perf_counter() - start
     start = time.perf_counter()
     ray.init(address="local", num_cpus=cpus, include_dashboard=False, logging_level="WARNING")
     startup_s = time.perf_counter() - start
+    env = gym.make("BubbleRob-v0", **env_kwargs)  # one env and policy for all, as evaluate does
+    loaded = load_policy(policy, env)
+    times = {"serial": 0.0, "ray": 0.0}
+    episodes_of: dict[str, list[Any]] = {"serial": [], "ray": []}
+    tasks = 0
     try:
-        start = time.perf_counter()
-        (distributed,), chunks = evaluate_on_ray([policy], episodes, 1000, env_kwargs=env_kwargs)
-        ray_s = time.perf_counter() - start
+        for index, block in enumerate(_blocks(1000, episodes, rounds)):
+            for run in ("serial", "ray") if index % 2 == 0 else ("ray", "serial"):
+                start = time.perf_counter()
+                if run == "serial":
+                    done = [run_episode(env, loaded, seed) for seed in block]
+                else:
+                    _, chunks = evaluate_on_ray(
+                        [policy], len(block), block.start, env_kwargs=env_kwargs
+                    )
+                    done = [episode for chunk in chunks for episode in chunk.episodes]
+                    tasks += len(chunks)
+                times[run] += time.perf_counter() - start
+                episodes_of[run] += done
     finally:
         ray.shutdown()
-    if distributed != serial:
-        raise SystemExit(f"the tables differ:\nserial {serial}\nray    {distributed}")
-    return {"serial": serial_s, "startup": startup_s, "ray": ray_s, "tasks": len(chunks)}
+        env.close()
+    if episodes_of["serial"] != episodes_of["ray"]:
+        raise SystemExit("the serial and Ray episodes differ")
+    return {**times, "startup": startup_s, "tasks": tasks}
+
+
+def _blocks(first: int, episodes: int, rounds: int) -> list[range]:
+    size = -(-episodes // rounds)
+    return [range(s, min(s + size, first + episodes)) for s in range(first, first + episodes, size)]
 
 
 def main() -> int:
@@ -65,6 +92,7 @@ def main() -> int:
     parser.add_argument("--episodes", type=int, default=200)
     parser.add_argument("--policy", default="ppo")
     parser.add_argument("--cpus", type=int, default=os.cpu_count() or 1)
+    parser.add_argument("--rounds", type=int, default=4, help="alternating blocks of seeds")
     parser.add_argument(
         "--quick", action="store_true", help="8 episodes of 100 steps (a smoke run)"
     )
@@ -73,8 +101,11 @@ def main() -> int:
         return _reexec_in_namespace()
     episodes, env_kwargs = (8, {"max_episode_steps": 100}) if args.quick else (args.episodes, {})
     load_before = _load()
-    times = measure(args.policy, episodes, args.cpus, env_kwargs)
-    print(f"{episodes} episodes of {args.policy}, {args.cpus} CPUs, {times['tasks']} Ray tasks")
+    times = measure(args.policy, episodes, args.cpus, env_kwargs, args.rounds)
+    print(
+        f"{episodes} episodes of {args.policy}, {args.cpus} CPUs, {args.rounds} rounds, "
+        f"{times['tasks']} Ray tasks"
+    )
     print("| run | seconds | speed-up |")
     print("|---|---|---|")
     print(f"| serial | {times['serial']:.1f} | 1.00 |")
@@ -83,7 +114,7 @@ def main() -> int:
     )
     total = times["ray"] + times["startup"]
     print(f"| --ray local, with start-up | {total:.1f} | {times['serial'] / total:.2f} |")
-    print(f"cluster start-up: {times['startup']:.1f} s; tables equal: yes")
+    print(f"cluster start-up: {times['startup']:.1f} s; episodes equal: yes")
     print(f"load average (1/5/15 min) before: {load_before}, after: {_load()}")
     return 0
 

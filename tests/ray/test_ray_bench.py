@@ -23,6 +23,6 @@ def test_ray_benchmark_prints_its_table() -> None:
         "| serial |",
         "| --ray local, cluster up |",
         "cluster start-up:",
-        "tables equal: yes",
+        "episodes equal: yes",
     ):
         assert row in done.stdout, f"{row!r} missing from\n{done.stdout}"
