@@ -60,7 +60,7 @@ def _speed(frames: list[tuple[LabelledFrame, Recogniser]]) -> float:
 def evaluate(seeds: range, size: int) -> dict[str, Any]:
     """Scores (overall and per block of seeds) and speed for one seed range and image size."""
     frames = list(labelled_frames(seeds, size, size))
-    total, blocks = Score(), {}
+    total, blocks = Score(), dict[int, Score]()
     for frame, recogniser in frames:
         detections = recogniser(frame.image)
         total.add(detections, frame.truths)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -81,9 +82,11 @@ def test_ground_truth_pixels_show_the_obstacles_colour_and_hold_its_bearing() ->
                 continue
             u_min, v_min, u_max, v_max = obj.box
             patch = obs["camera"][v_min : v_max + 1, u_min : u_max + 1].astype(float)
-            mask = segmentation[v_min : v_max + 1, u_min : u_max + 1] >= 0
+            mask = segmentation[v_min : v_max + 1, u_min : u_max + 1] == obj.geom_id
+            assert int(mask.sum()) == obj.pixels
             colour = patch[mask].mean(axis=0)
-            expected = np.array(OBSTACLE_PALETTE[obj.colour])  # type: ignore[index]
+            assert obj.colour is not None
+            expected = np.array(OBSTACLE_PALETTE[obj.colour], dtype=float)
             cosine = colour @ expected / np.linalg.norm(colour) / np.linalg.norm(expected)
             assert cosine > 0.97, (seed, obj)  # shading scales the palette colour
             if obj.kind == "cylinder" and u_min > 0 and u_max < 95:
@@ -194,3 +197,15 @@ def test_benchmark_prints_json() -> None:
         timeout=60,
     )
     assert bad.returncode == 2 and "--sizes must be in [16, 1024] pixels, got 2" in bad.stderr
+
+
+def test_readme_recognise_example_runs() -> None:
+    readme = (ROOT / "README.md").read_text()
+    section = readme.split("## Recognise\n", 1)[1].split("\n## ", 1)[0]
+    code = section.split("```python\n", 1)[1].split("```", 1)[0]
+    result = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=300, check=True
+    )
+    printed = re.search(r"```\n(seen .*?)```", section, flags=re.DOTALL)
+    assert printed is not None
+    assert result.stdout == printed.group(1)

@@ -14,7 +14,11 @@ import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
-from bubblerob_env.vision.ground_truth import GroundTruthCamera, LabelledObject
+from bubblerob_env.vision.ground_truth import (
+    GroundTruthCamera,
+    LabelledObject,
+    label_segmentation,
+)
 from bubblerob_env.vision.recognise import Recogniser
 from bubblerob_env.vision.scoring import Score
 
@@ -31,6 +35,8 @@ class LabelledFrame:
     step: int
     image: NDArray[np.uint8]
     truths: list[LabelledObject]
+    segmentation: NDArray[np.int32]
+    """The geom id each pixel shows (-1: none), from MuJoCo's segmentation rendering."""
 
 
 def labelled_frames(
@@ -48,8 +54,15 @@ def labelled_frames(
             action = np.zeros(2, dtype=np.float32)
             for step in range(steps + 1):
                 if step % every == 0:
-                    truths = truth_camera.label(core)
-                    yield LabelledFrame(seed, step, obs["camera"], truths), recogniser
+                    segmentation = truth_camera.segment(core.data)  # type: ignore[attr-defined]
+                    truths = label_segmentation(
+                        segmentation,
+                        core.model,  # type: ignore[attr-defined]
+                        core.data,  # type: ignore[attr-defined]
+                        core.layout,  # type: ignore[attr-defined]
+                    )
+                    frame = LabelledFrame(seed, step, obs["camera"], truths, segmentation)
+                    yield frame, recogniser
                 if step % _HOLD_STEPS == 0:
                     forward, turn = wander.uniform(0.2, 0.8), wander.uniform(-0.4, 0.4)
                     action[:] = (forward - turn, forward + turn)

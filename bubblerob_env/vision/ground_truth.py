@@ -46,6 +46,8 @@ class LabelledObject:
     pixels: int
     bearing: float
     distance: float
+    geom_id: int = -1
+    """The MuJoCo geom the pixels show (the segmentation's value)."""
 
     @property
     def bearing_deg(self) -> float:
@@ -152,6 +154,7 @@ def label_segmentation(
                 pixels=int(count),
                 bearing=pose.bearing(*point),
                 distance=pose.distance(*point),
+                geom_id=geom,
             )
         )
     objects.sort(key=lambda o: -o.pixels)
