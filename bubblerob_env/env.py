@@ -70,7 +70,6 @@ _BADQACC, _BADQPOS, _BADQVEL = (int(w) for w in _DIVERGENCE_WARNINGS)
 _COLLISION, _CLIPPED, _DIVERGED, _REWARD = (
     int(c) for c in (OUT.COLLISION, OUT.CLIPPED, OUT.DIVERGED, OUT.REWARD)
 )
-_WHEELS = slice(int(OUT.WHEEL_SPEEDS), int(OUT.WHEEL_SPEEDS) + 2)  # measured (left, right) rad/s
 
 
 Observation = dict[str, NDArray[Any]] | NDArray[np.float32]
@@ -235,11 +234,12 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
             max_linear_speed: m/s meant by a linear action of 1; default: the wheels' limit.
             max_angular_speed: rad/s meant by an angular action of 1; default: spinning in place
                 with both wheels at their limit.
-            odometry_noise: Relative wheel-slip error of the odometry per control step (>= 0):
-                each wheel's travel is multiplied by ``1 + odometry_noise * N(0, 1)``, two draws
-                per step from the episode's generator (none when 0, the default, which draws
-                nothing). ``info`` has the odometry (``odom_x``, ``odom_y``, ``odom_yaw``) beside
-                the truth (``x``, ``y``, ``yaw``); see :mod:`bubblerob_env.odometry`.
+            odometry_noise: Relative wheel-slip error of the odometry per control step, from 0
+                to 1: each wheel's travel in a step is multiplied by ``1 + odometry_noise *
+                N(0, 1)``, two draws per step from the episode's generator, and the odometry
+                drifts. 0 (the default) draws nothing: the odometry is the truth. ``info`` has
+                the odometry (``odom_x``, ``odom_y``, ``odom_yaw``) beside the truth (``x``,
+                ``y``, ``yaw``); see :mod:`bubblerob_env.odometry`.
             laser_num_rays: Rays per scan; 0 removes the laser from the observation.
             laser_fov: Field of view in radians: 2*pi (360 degrees) or less, centred on +x.
             laser_range_min: Minimum valid range (m), reported to ROS.
@@ -526,7 +526,7 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
         self._one_robot = np.array([row], dtype=np.int64)
         core.refresh_geoms(row, self.model)
         if odometry is None:
-            odometry = Odometry(1, self.drive, self.dt, self.odometry_noise)
+            odometry = Odometry(1, self.drive.wheel_separation, self.odometry_noise)
             previous: Odometry | None = getattr(self, "_odometry", None)
             if previous is not None:
                 odometry.state[0] = previous.state[self._odometry_row]
@@ -578,7 +578,7 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
         self._draw_noise()
         core.observe(self._one_robot)
         row = core.out[self._row]
-        self._odometry.reset(self._row, row[OUT.POSITION], row[OUT.POSITION + 1], row[OUT.YAW])
+        self._odometry.reset(self._row, row)
         row[OUT.COLLISION] = row[OUT.CLIPPED] = 0.0
         row[OUT.WHEEL_COMMAND : OUT.WHEEL_COMMAND + 2] = 0.0
         row[OUT.REWARD : OUT.COLLISION_COST + 1] = 0.0
@@ -604,7 +604,7 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
         # still a collision), the sensors, the reward and its parts.
         core.step(self._one_robot)
         slip = draw_slip(self.np_random, self.odometry_noise)[None] if self.odometry_noise else None
-        self._odometry.advance(self._one_robot, core.out[self._one_robot, _WHEELS], slip)
+        self._odometry.advance(self._one_robot, core.out, slip)
         values = core.out[self._row].tolist()
         collision = values[_COLLISION] != 0.0
         self._clipped_actions += values[_CLIPPED] != 0.0

@@ -1,17 +1,19 @@
 """Wheel odometry: the pose a robot believes from its wheel encoders, drifting from the truth.
 
-Each control step, each wheel's travel is the mean of its measured speeds (rad/s, the
-``wheel_speeds`` of ``info``) at the start and at the end of the step, times the wheel radius and
-the step's duration (the trapezoidal rule). With ``odometry_noise = s > 0`` each wheel's travel is
-then multiplied by ``1 + s * e``, ``e`` a standard normal draw per wheel and step from the
-episode's generator (``env.np_random``): a relative wheel-slip error per control step, as Stage's
-``odom_error`` and Gazebo's encoder noise model it. The travels move the pose along an arc
-(differential-drive dead reckoning, the midpoint heading), as ``diff_drive_controller`` integrates.
+Each control step, the true motion of ``base_link`` (from the last step's true pose to this one's)
+is split into the travels of the two wheels of a differential drive (wheel separation ``b``): the
+signed length ``d`` of the step's chord and its turn ``t`` give ``d - t b / 2`` (left) and
+``d + t b / 2`` (right). With ``odometry_noise = s > 0`` each travel is multiplied by
+``1 + s * e``, ``e`` a standard normal draw per wheel and step from the episode's generator
+(``env.np_random``): a relative wheel-slip error per control step, as Stage's ``odom_error`` and
+Gazebo's encoder noise model it. The corrupted travels move the odometry pose along an arc (dead
+reckoning at the midpoint heading, as ``diff_drive_controller`` integrates), so the errors
+accumulate: heading errors turn into position errors that grow with the distance driven.
 
-Odometry starts each episode at the true start pose, so the ``odom`` frame coincides with ``map``
-at the start and ``map -> odom`` is what the drift has accumulated since. Even without noise the
-odometry is not the truth: MuJoCo's wheels slip a little on turns and the rule above is
-approximate, as a real robot's encoders are.
+With ``odometry_noise = 0`` (the default) the odometry is the truth itself, copied, and nothing is
+drawn from the generator: episodes, ``/odom`` and ``odom -> base_link`` are what they always were.
+Odometry starts each episode at the true start pose, so ``odom`` coincides with ``map`` at the
+start and ``map -> odom`` is what the drift has accumulated since.
 
 The integration is a numba loop, one robot at a time with scalar ``math`` functions, so a row's
 result does not depend on how many rows a call integrates: a batch of robots gets bit for bit what
@@ -26,41 +28,50 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from bubblerob_env.kinematics import DiffDrive
+from bubblerob_env.core.kernel import OUT
 
-__all__ = ["Odometry", "draw_slip", "integrate_wheels"]
+__all__ = ["TRUTH_COLUMNS", "Odometry", "draw_slip", "integrate_travel"]
 
-POSE, LAST_SPEEDS = 3, 2  # widths of the state's parts: (x, y, yaw), (left, right) rad/s
+TRUTH_COLUMNS = np.array([int(OUT.POSITION), int(OUT.POSITION) + 1, int(OUT.YAW)])
+"""Columns of the kernel's results holding the true x, y (m) and yaw (rad) of ``base_link``."""
+POSE = 3  # the state: odometry (x, y, yaw), then the truth at the last step (x, y, yaw)
 
 
 @njit(cache=True, nogil=True)
-def integrate_wheels(
+def _wrap(angle: float) -> float:
+    """``angle`` in [-pi, pi] (numba has no ``math.remainder``)."""
+    return math.atan2(math.sin(angle), math.cos(angle))
+
+
+@njit(cache=True, nogil=True)
+def integrate_travel(
     state: NDArray[np.float64],
     rows: NDArray[np.int64],
-    wheel_speeds: NDArray[np.float64],
+    truth: NDArray[np.float64],
     slip: NDArray[np.float64],
-    geometry: NDArray[np.float64],
+    separation: float,
 ) -> None:
-    """Advance ``state[rows]`` (x, y, yaw, last left and right speeds) by one control step.
+    """Advance ``state[rows]`` by one control step (see the module docstring).
 
-    ``wheel_speeds[k]`` is row ``rows[k]``'s measured (left, right) at the step's end, ``slip[k]``
-    the relative error of each wheel's travel (zeros: none); ``geometry`` is (wheel radius, wheel
-    separation, step duration).
+    ``truth[k]`` is row ``rows[k]``'s true (x, y, yaw) at the step's end, ``slip[k]`` the relative
+    error of each wheel's travel (left, right).
     """
-    radius, separation, dt = geometry[0], geometry[1], geometry[2]
     for k in range(rows.shape[0]):
         row = state[rows[k]]
-        left, right = wheel_speeds[k, 0], wheel_speeds[k, 1]
-        travel_left = 0.5 * (row[3] + left) * radius * dt * (1.0 + slip[k, 0])
-        travel_right = 0.5 * (row[4] + right) * radius * dt * (1.0 + slip[k, 1])
-        distance = 0.5 * (travel_left + travel_right)
-        turn = (travel_right - travel_left) / separation
-        heading = row[2] + 0.5 * turn
+        x, y, yaw = truth[k, 0], truth[k, 1], truth[k, 2]
+        dx, dy = x - row[3], y - row[4]
+        forward = math.cos(row[5]) * dx + math.sin(row[5]) * dy
+        chord = math.copysign(math.hypot(dx, dy), forward)
+        turn = _wrap(yaw - row[5])
+        left = (chord - 0.5 * turn * separation) * (1.0 + slip[k, 0])
+        right = (chord + 0.5 * turn * separation) * (1.0 + slip[k, 1])
+        distance = 0.5 * (left + right)
+        odom_turn = (right - left) / separation
+        heading = row[2] + 0.5 * odom_turn
         row[0] += distance * math.cos(heading)
         row[1] += distance * math.sin(heading)
-        yaw = row[2] + turn
-        row[2] = math.atan2(math.sin(yaw), math.cos(yaw))
-        row[3], row[4] = left, right
+        row[2] = _wrap(row[2] + odom_turn)
+        row[3], row[4], row[5] = x, y, yaw
 
 
 def draw_slip(generator: np.random.Generator, noise: float) -> NDArray[np.float64]:
@@ -69,35 +80,36 @@ def draw_slip(generator: np.random.Generator, noise: float) -> NDArray[np.float6
 
 
 class Odometry:
-    """The odometry of ``n`` robots: their believed poses and last measured wheel speeds."""
+    """The odometry of ``n`` robots with wheels ``wheel_separation`` m apart."""
 
-    def __init__(self, n: int, drive: DiffDrive, dt: float, noise: float) -> None:
-        """``n`` robots with ``drive``'s wheels, stepped every ``dt`` s, slip error ``noise``."""
-        self.state = np.zeros((n, POSE + LAST_SPEEDS))
+    def __init__(self, n: int, wheel_separation: float, noise: float) -> None:
+        """``n`` robots, relative wheel-slip error ``noise`` per step (0: the truth)."""
+        self.state = np.zeros((n, 2 * POSE))
         self.noise = float(noise)
-        self._geometry = np.array([drive.wheel_radius, drive.wheel_separation, dt])
-        self._no_slip = np.zeros((n, 2))
+        self.separation = float(wheel_separation)
 
     @property
     def poses(self) -> NDArray[np.float64]:
         """``(n, 3)`` view: each robot's odometry x (m), y (m) and yaw (rad, in [-pi, pi])."""
         return self.state[:, :POSE]
 
-    def reset(self, row: int, x: float, y: float, yaw: float) -> None:
-        """Start robot ``row``'s odometry at the pose ``(x, y, yaw)``, at rest."""
-        self.state[row] = (x, y, yaw, 0.0, 0.0)
+    def reset(self, row: int, results: NDArray[np.float64]) -> None:
+        """Start robot ``row``'s odometry at its true pose in its row of the kernel's results."""
+        self.state[row, :POSE] = self.state[row, POSE:] = results[TRUTH_COLUMNS]
 
     def advance(
         self,
         rows: NDArray[np.int64],
-        wheel_speeds: NDArray[np.float64],
+        results: NDArray[np.float64],
         slip: NDArray[np.float64] | None = None,
     ) -> None:
-        """One control step of ``rows`` with their measured ``(len(rows), 2)`` wheel speeds.
+        """One control step of ``rows``, whose true poses are in the kernel's ``results``.
 
-        ``slip``: each row's (left, right) relative travel error (:func:`draw_slip`); None: none.
+        ``slip``: each row's (left, right) relative travel error (:func:`draw_slip`); None: no
+        noise, the odometry is the truth.
         """
-        no_slip = self._no_slip[: len(rows)] if slip is None else slip
-        integrate_wheels(
-            self.state, rows, np.ascontiguousarray(wheel_speeds), no_slip, self._geometry
-        )
+        truth = results[rows][:, TRUTH_COLUMNS]
+        if slip is None:
+            self.state[rows, :POSE] = self.state[rows, POSE:] = truth
+            return
+        integrate_travel(self.state, rows, truth, slip, self.separation)

@@ -57,7 +57,6 @@ Step = tuple[Any, float, bool, bool, dict[str, Any]]
 _ARENA_FULL, _COLLISION, _CLIPPED, _DIVERGED, _REWARD = (
     int(c) for c in (OUT.ARENA_FULL, OUT.COLLISION, OUT.CLIPPED, OUT.DIVERGED, OUT.REWARD)
 )
-_WHEELS = slice(int(OUT.WHEEL_SPEEDS), int(OUT.WHEEL_SPEEDS) + 2)  # measured (left, right) rad/s
 
 
 class _BatchEnv(BubbleRobEnv):
@@ -128,7 +127,7 @@ class BubbleRobVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
         self.observation_space = batch_space(first.observation_space, num_envs)
         self.action_space = batch_space(first.action_space, num_envs)
         self._core = RobotBatch(self.envs, first._analytic, first._core.tables)
-        self._odometry = Odometry(num_envs, first.drive, first.dt, first.odometry_noise)
+        self._odometry = Odometry(num_envs, first.drive.wheel_separation, first.odometry_noise)
         for i, env in enumerate(self.envs):  # each robot now senses into the batch's buffers
             env._attach(self._core, i, self._odometry)
         self._trigger = first.proximity_spec.trigger_distance
@@ -352,7 +351,7 @@ class BubbleRobVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
             if noise and len(robots)
             else None
         )
-        self._odometry.advance(robots, self._core.out[robots, _WHEELS], slip)
+        self._odometry.advance(robots, self._core.out, slip)
 
     def _run_kernel(self, stepped: NDArray[np.bool_]) -> None:
         """One kernel call per thread share of the robots that step."""
