@@ -13,7 +13,8 @@ use_egl_without_display()
 
 from gymnasium.envs.registration import register  # noqa: E402
 
-from bubblerob_env.env import ACTION_TYPES, BubbleRobEnv  # noqa: E402
+from bubblerob_env.arena import ArenaLayout, Obstacle  # noqa: E402
+from bubblerob_env.env import ACTION_TYPES, OBS_MODES, BubbleRobEnv  # noqa: E402
 from bubblerob_env.kinematics import DiffDrive  # noqa: E402
 from bubblerob_env.sensors import (  # noqa: E402
     CameraSpec,
@@ -21,19 +22,28 @@ from bubblerob_env.sensors import (  # noqa: E402
     ProximitySpec,
     StaticTransform,
 )
+from bubblerob_env.specs import EnvSpecs  # noqa: E402
+from bubblerob_env.topdown import TopDownRenderer  # noqa: E402
 from bubblerob_env.vector import BubbleRobVectorEnv  # noqa: E402
-from bubblerob_env.wrappers import EpisodeSuccess  # noqa: E402
+from bubblerob_env.wrappers import EpisodeSuccess, LaserPooling, TopDownView  # noqa: E402
 
 __all__ = [
     "ACTION_TYPES",
+    "OBS_MODES",
+    "ArenaLayout",
     "BubbleRobEnv",
     "BubbleRobVectorEnv",
     "CameraSpec",
     "DiffDrive",
+    "EnvSpecs",
     "EpisodeSuccess",
+    "LaserPooling",
     "LaserSpec",
+    "Obstacle",
     "ProximitySpec",
     "StaticTransform",
+    "TopDownRenderer",
+    "TopDownView",
 ]
 __version__ = "0.1.0"
 
