@@ -78,7 +78,7 @@ def add_subcommands(subparsers: Any) -> None:
     info = subparsers.add_parser(
         "info", help="show a bag's topics, counts, duration and episodes", description=None
     )
-    info.add_argument("bag", type=Path, help="ROS 1 .bag file or ROS 2 bag directory")
+    info.add_argument("bag", type=Path, help="a .bag, .mcap or .db3 file, or a ROS 2 bag folder")
     info.add_argument("--json", action="store_true", help="print JSON instead of text")
     info.set_defaults(handler=_info)
 
@@ -88,17 +88,20 @@ def add_subcommands(subparsers: Any) -> None:
         description="Re-create the env of every episode from the bag's metadata, feed the "
         "recorded actions and compare every message; report the first divergence.",
     )
-    replay.add_argument("bag", type=Path, help="ROS 1 .bag file or ROS 2 bag directory")
+    replay.add_argument("bag", type=Path, help="a .bag, .mcap or .db3 file, or a ROS 2 bag folder")
     replay.add_argument("--episodes", type=int, default=None, help="replay only the first N")
     replay.set_defaults(handler=_replay)
 
     recover = subparsers.add_parser(
         "recover",
-        help="finish a bag whose recording was killed (index, summary, metadata.yaml)",
+        help="finish a bag whose recording was killed, or salvage a damaged one",
         description="Write a finished bag from the complete episodes of an unfinished one (its "
-        "recorder was killed) and put it in its place; the original is kept as BAG.orig.",
+        "recorder was killed) and put it in its place; the original is kept as BAG.orig. A "
+        "damaged bag (a failed CRC, a chunk that does not decompress) is salvaged: its complete "
+        "episodes before the damage go to BAG.recovered beside it, and the original is not "
+        "touched.",
     )
-    recover.add_argument("bag", type=Path, help="ROS 1 .bag file or ROS 2 bag directory")
+    recover.add_argument("bag", type=Path, help="a .bag, .mcap or .db3 file, or a ROS 2 bag folder")
     recover.set_defaults(handler=_recover)
 
     from bubblerob_env.ros.live.cli import add_node_subcommand
