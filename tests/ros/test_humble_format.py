@@ -131,7 +131,9 @@ def humble_decode(text: str) -> dict[str, object]:
 
 @pytest.mark.parametrize("fmt", ["mcap", "sqlite3"])
 def test_humble_bags_decode_by_humbles_rules(record, fmt):
-    path = record(fmt, episodes=2, steps=4, distro="humble")
+    # With the camera: its latched /camera/camera_info is among the topics checked below.
+    camera = {"camera_width": 16, "camera_height": 12}
+    path = record(fmt, episodes=2, steps=4, distro="humble", env_kwargs=camera)
     info = humble_decode((path / "metadata.yaml").read_text())
     assert info["version"] == 5 and info["storage_identifier"] == fmt
     topics = {t["name"]: t for t in info["topics"]}  # type: ignore[attr-defined]
@@ -139,7 +141,10 @@ def test_humble_bags_decode_by_humbles_rules(record, fmt):
     assert {t.name: t.count for t in summary.topics} == {
         n: t["message_count"] for n, t in topics.items()
     }
-    latched = {"/tf_static", "/bubblerob/episode", "/map", "/camera/camera_info"}
+    # camera_info goes with every image, volatile, as camera drivers publish it; the test once
+    # listed it as latched, which a recording without a camera could never contradict.
+    latched = {"/tf_static", "/bubblerob/episode", "/map"}
+    assert latched | {"/camera/camera_info", "/camera/image_raw"} <= set(topics)
     for name, topic in topics.items():
         (profile,) = decode_qos(topic["offered_qos_profiles"])
         assert (profile["history"], profile["reliability"]) == (1, 1), name  # keep last, reliable
