@@ -51,7 +51,7 @@ def _copy(bag: Path, where: Path) -> Path:
 
 
 def _digest(path: Path) -> str:
-    files = sorted(path.rglob("*")) if path.is_dir() else [path]
+    files = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]
     return hashlib.sha256(b"".join(p.name.encode() + p.read_bytes() for p in files)).hexdigest()
 
 
@@ -277,3 +277,18 @@ def test_a_finished_ros1_bag_cut_inside_its_index_reads_every_episode(bags, tmp_
     summary = read_summary(bag)
     assert summary.unfinished and len(summary.episodes) == EPISODES
     assert replay_bag(bag).ok
+
+
+def test_recovering_a_lone_storage_file_among_others_writes_beside_it(bags, tmp_path, capsys):
+    folder = tmp_path / "mixed"
+    folder.mkdir()
+    data = storage_file(bags[("mcap", "zstd")]).read_bytes()
+    (folder / "a.mcap").write_bytes(data[: len(data) * 3 // 4])  # killed: no footer
+    (folder / "notes.txt").write_text("hello")
+    before = _digest(folder / "a.mcap")
+    assert cli.main(["recover", str(folder / "a.mcap")]) == 0
+    out = capsys.readouterr().out
+    assert f"into {folder / 'a.recovered'}; the unfinished original is untouched at" in out
+    assert _digest(folder / "a.mcap") == before  # not renamed, not rewritten
+    assert sorted(p.name for p in folder.iterdir()) == ["a.mcap", "a.recovered", "notes.txt"]
+    assert replay_bag(folder / "a.recovered").ok
