@@ -371,6 +371,7 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
             self.action_type,
             self.max_linear_speed,
             self.max_angular_speed,
+            self.odometry_noise,
         )
         """The env's own description as plain data (what the ROS layer and policies read)."""
 

@@ -28,6 +28,9 @@ class EnvSpecs:
     action_type: str
     max_linear_speed: float
     max_angular_speed: float
+    odometry_noise: float = 0.0
+    """The env's ``odometry_noise``: with it, ``/odom`` drifts and the truth has a topic of its
+    own (``/base_pose_ground_truth``)."""
 
     @classmethod
     def from_env(cls, env: Any) -> EnvSpecs:

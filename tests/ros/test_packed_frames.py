@@ -146,8 +146,9 @@ def test_batched_frames_write_the_bytes_frame_by_frame_packing_writes(
         {"action_type": "twist"},
         {"camera": True, "camera_width": 16, "camera_height": 12},
         {"laser_num_rays": 0},
+        {"odometry_noise": 0.2},
     ],
-    ids=["twist", "camera", "no-laser"],
+    ids=["twist", "camera", "no-laser", "drifting-odometry"],
 )
 def test_batched_frames_match_frame_by_frame_for_every_observation_set(tmp_path, env_kwargs):
     batched, _ = _record(tmp_path / "a" / "bag", "mcap", "none", "batched", 20_000, **env_kwargs)

@@ -18,6 +18,7 @@ path (``tests/ros/test_packed_frames.py`` checks).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any, SupportsFloat
 
@@ -54,6 +55,7 @@ class FrameBatch:
         self.capacity = capacity
         self._laser = specs.laser is not None
         self._camera = specs.camera is not None
+        self._odometry = specs.odometry_noise > 0.0
         self._at = row_columns(specs.laser.num_rays if specs.laser is not None else 0)
         self._rows = np.empty((capacity, self._at["laser"].stop), dtype=np.float64)
         self._count = 0
@@ -91,9 +93,12 @@ class FrameBatch:
         image = None
         if self._camera:
             image = np.ascontiguousarray(obs["camera"], dtype=np.uint8).tobytes()
+        odometry = (
+            (info["odom_x"], info["odom_y"], info["odom_yaw"]) if self._odometry else _NO_ODOMETRY
+        )
         parts: tuple[Any, ...] = (  # in ROW order (checked below, at import)
             info["position"], info["quaternion_wxyz"], info["body_twist"], info["wheel_command"],
-            obs["proximity"], action,
+            obs["proximity"], action, odometry,
         )  # fmt: skip
         if self._laser:
             parts += (obs["laser"],)
@@ -151,6 +156,7 @@ class FrameBatch:
         twist = rows[:, at["body_twist"]].T
         for index, name in enumerate(("vx", "vy", "vz", "wx", "wy", "wz")):
             columns[name] = twist[index]
+        columns.update(self._odometry_columns(columns, rows[:, at["odometry"]].T))
         if specs.laser is not None:
             # float32 masks, as frame_args: a Python float threshold compares as float32
             ranges = rows[:, at["laser"]].astype("<f4")
@@ -161,8 +167,27 @@ class FrameBatch:
             )
         return columns
 
+    def _odometry_columns(
+        self, columns: Mapping[str, NDArray[Any]], odometry: NDArray[np.float64]
+    ) -> dict[str, NDArray[Any]]:
+        """The ``o*`` values, as ``frame_args`` computes them: the truth, or the 2D odometry."""
+        truth = ("px", "py", "pz", "qx", "qy", "qz", "qw")
+        names = ("ox", "oy", "oz", "oqx", "oqy", "oqz", "oqw")
+        if not self._odometry:
+            return {name: columns[source] for name, source in zip(names, truth, strict=True)}
+        # math's sin and cos, as frame_args: numpy's vectorised ones may differ in the last bit.
+        half_yaw = (0.5 * odometry[2]).tolist()
+        sin = np.array([math.sin(h) for h in half_yaw])
+        cos = np.array([math.cos(h) for h in half_yaw])
+        zeros = np.zeros(len(half_yaw))
+        values = (odometry[0], odometry[1], columns["pz"], zeros, zeros, sin, cos)
+        return dict(zip(names, values, strict=True))
+
+
+_NO_ODOMETRY = (0.0, 0.0, 0.0)  # the odometry columns of an env without odometry noise
 
 # FrameBatch.add gathers a row with a tuple literal (the cheapest per step): keep it in ROW order.
 assert [key for _, key, _ in ROW] == [
-    "position", "quaternion_wxyz", "body_twist", "wheel_command", "proximity", "action", "laser",
+    "position", "quaternion_wxyz", "body_twist", "wheel_command", "proximity", "action",
+    "odometry", "laser",
 ], "FrameBatch.add gathers in ROW order"  # fmt: skip

@@ -16,9 +16,12 @@ objects share one definition of every field:
    compiles.
 
 Frames follow REP 103/105: ``odom -> base_link`` on ``/tf`` and in ``nav_msgs/Odometry`` (twist in
-``base_link``), ``base_link -> <sensor>`` and the identity ``map -> odom`` on ``/tf_static`` (the
-simulator's odometry is ground truth: it never drifts from the map), the camera image in
-``camera_optical_frame``, the episode's occupancy grid (``/map``) in ``map``.
+``base_link``), ``base_link -> <sensor>`` and the identity ``map -> odom`` on ``/tf_static``, the
+camera image in ``camera_optical_frame``, the episode's occupancy grid (``/map``) in ``map``.
+Without ``odometry_noise`` the odometry is the ground truth: it never drifts from the map. With
+it, ``/odom`` and ``odom -> base_link`` are the env's drifting odometry and the truth is on
+``/base_pose_ground_truth`` (``nav_msgs/Odometry``, frame ``map``, as Stage's ROS driver has it);
+a localiser (AMCL) estimates the ``map -> odom`` that the drift makes.
 """
 
 from __future__ import annotations
@@ -57,6 +60,7 @@ FRAME_KEYS = (
     "image",
     "camera_info",
     "odom",
+    "base_pose_ground_truth",
     "tf",
     "clock",
     "simulation_time",
@@ -110,6 +114,8 @@ class RosConverter(FrameValues):
                 continue
             if key in ("image", "camera_info") and self.specs.camera is None:
                 continue
+            if key == "base_pose_ground_truth" and self.specs.odometry_noise <= 0.0:
+                continue  # the odometry is the truth: /odom has it
             if key in _STEP_KEYS and not stepped:
                 continue
             keys.append(key)
@@ -248,19 +254,27 @@ class RosConverter(FrameValues):
         return self._msg("action", layout=layout, data=_array(v["action"], np.float64))
 
     def _odom(self, v: Mapping[str, Any]) -> Any:
+        return self._odometry(v, ODOM_FRAME, ("ox", "oy", "oz", "oqx", "oqy", "oqz", "oqw"))
+
+    def _base_pose_ground_truth(self, v: Mapping[str, Any]) -> Any:
+        return self._odometry(v, MAP_FRAME, ("px", "py", "pz", "qx", "qy", "qz", "qw"))
+
+    def _odometry(self, v: Mapping[str, Any], frame: str, pose_names: tuple[str, ...]) -> Any:
+        """A ``nav_msgs/Odometry`` of the pose named ``pose_names`` (x, y, z, qx, qy, qz, qw)."""
         t = self._types
+        x, y, z, qx, qy, qz, qw = (v[name] for name in pose_names)
         pose = t["geometry_msgs/msg/Pose"](
-            position=t["geometry_msgs/msg/Point"](x=v["px"], y=v["py"], z=v["pz"]),
-            orientation=self._quaternion(v["qx"], v["qy"], v["qz"], v["qw"]),
+            position=t["geometry_msgs/msg/Point"](x=x, y=y, z=z),
+            orientation=self._quaternion(qx, qy, qz, qw),
         )
         twist = t["geometry_msgs/msg/Twist"](
             linear=self._vector3(v["vx"], v["vy"], v["vz"]),
             angular=self._vector3(v["wx"], v["wy"], v["wz"]),
         )
-        zeros = np.zeros(36)  # ground truth from the simulator: no uncertainty to report
+        zeros = np.zeros(36)  # no uncertainty reported (the truth, or odometry's unknown drift)
         return self._msg(
             "odom",
-            header=self._header(v, ODOM_FRAME),
+            header=self._header(v, frame),
             child_frame_id=self.frame_prefix + BASE_FRAME,
             pose=t["geometry_msgs/msg/PoseWithCovariance"](pose=pose, covariance=zeros),
             twist=t["geometry_msgs/msg/TwistWithCovariance"](twist=twist, covariance=zeros),
@@ -282,8 +296,8 @@ class RosConverter(FrameValues):
             v,
             ODOM_FRAME,
             BASE_FRAME,
-            (v["px"], v["py"], v["pz"]),
-            (v["qx"], v["qy"], v["qz"], v["qw"]),
+            (v["ox"], v["oy"], v["oz"]),
+            (v["oqx"], v["oqy"], v["oqz"], v["oqw"]),
         )
         return self._msg("tf", transforms=[pose])
 

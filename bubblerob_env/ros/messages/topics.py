@@ -43,6 +43,7 @@ MSGTYPES: dict[str, str] = {
     "action": "std_msgs/msg/Float64MultiArray",
     "episode": "std_msgs/msg/String",
     "map": "nav_msgs/msg/OccupancyGrid",
+    "base_pose_ground_truth": "nav_msgs/msg/Odometry",
 }
 """Message type of each topic key (ROS 2 style names, as ``rosbags`` spells them)."""
 
@@ -92,7 +93,10 @@ class Topics:
     The defaults are REP-style names plus the tutorial's BubbleRob topics
     (``/sensorTrigger``, ``/leftMotorSpeed``, ``/rightMotorSpeed``, ``/simulationTime``).
     Camera topics are written only when the env has its camera on. ``/map`` is the episode's
-    ground-truth ``nav_msgs/OccupancyGrid``, once per episode (latched).
+    ground-truth ``nav_msgs/OccupancyGrid``, once per episode (latched). With the env's
+    ``odometry_noise`` > 0, ``/odom`` drifts and ``/base_pose_ground_truth`` has the true pose
+    (``nav_msgs/Odometry`` in ``map``, as Stage's ROS driver names it); without, ``/odom`` is the
+    truth and that topic is not written.
     """
 
     scan: str | None = "/scan"
@@ -114,6 +118,7 @@ class Topics:
     action: str | None = "/bubblerob/action"
     episode: str | None = "/bubblerob/episode"
     map: str | None = "/map"
+    base_pose_ground_truth: str | None = "/base_pose_ground_truth"
     namespace: str = ""
 
     def __post_init__(self) -> None:

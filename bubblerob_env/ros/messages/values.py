@@ -10,6 +10,7 @@ dict; message builders take them as a dict (:meth:`FrameValues.frame_values`).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, SupportsFloat
@@ -35,7 +36,10 @@ __all__ = [
 SCALAR_NAMES = (
     "sec", "nanosec", "seq", "sim_time", "proximity", "triggered",
     "px", "py", "pz", "qx", "qy", "qz", "qw", "vx", "vy", "vz", "wx", "wy", "wz",
+    "ox", "oy", "oz", "oqx", "oqy", "oqz", "oqw",
 )  # fmt: skip
+"""Scalar values of every frame: ``p*``/``q*`` the true pose, ``o*``/``oq*`` the odometry's
+(the truth itself without ``odometry_noise``; else the drifting 2D pose at the true height)."""
 # Values of a frame after a step, after those of SCALAR_NAMES, the scan and the image.
 STEP_NAMES = (
     "action", "left", "right", "linear_x", "angular_z", "reward", "terminated", "truncated",
@@ -45,10 +49,11 @@ STEP_NAMES = (
 ROW = (
     ("info", "position", 3), ("info", "quaternion_wxyz", 4), ("info", "body_twist", 6),
     ("info", "wheel_command", 2), ("obs", "proximity", 1), ("action", "action", 2),
-    ("obs", "laser", None),
+    ("info", "odometry", 3), ("obs", "laser", None),
 )  # fmt: skip
 """The numbers of a frame after a step, as a batch gathers them into one ``float64`` row:
-``(source, key, width)``, in row order (the laser last, ``num_rays`` wide, if the env has one)."""
+``(source, key, width)``, in row order (the laser last, ``num_rays`` wide, if the env has one);
+``odometry`` is ``info``'s ``odom_x``, ``odom_y``, ``odom_yaw`` (zeros without odometry noise)."""
 
 
 def row_columns(num_rays: int) -> dict[str, slice]:
@@ -109,6 +114,7 @@ class FrameValues:
 
     def _init_values(self, specs: EnvSpecs) -> None:
         self.specs = specs
+        self._odometry_noise = specs.odometry_noise > 0.0
         self._proximity_min = specs.proximity.range_min
         self._proximity_max = specs.proximity.range_max
         names = [*SCALAR_NAMES]
@@ -142,10 +148,17 @@ class FrameValues:
         proximity = rep117(
             obs["proximity"].astype(np.float64), self._proximity_min, self._proximity_max
         ).item(0)
+        px, py, pz = info["position"].tolist()
+        odometry = (px, py, pz, qx, qy, qz, qw)
+        if self._odometry_noise:
+            half_yaw = 0.5 * info["odom_yaw"]
+            odometry = (
+                info["odom_x"], info["odom_y"], pz, 0.0, 0.0, math.sin(half_yaw), math.cos(half_yaw)
+            )  # fmt: skip
         args: tuple[Any, ...] = (
             sec, nanosec, seq & 0xFFFFFFFF, stamp_ns * 1e-9, proximity,
-            bool(info["proximity_triggered"]), *info["position"].tolist(), qx, qy, qz, qw,
-            *info["body_twist"].tolist(),
+            bool(info["proximity_triggered"]), px, py, pz, qx, qy, qz, qw,
+            *info["body_twist"].tolist(), *odometry,
         )  # fmt: skip
         laser = self.specs.laser
         if laser is not None:
