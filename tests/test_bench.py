@@ -19,6 +19,7 @@ ROOT = Path(__file__).resolve().parents[1]
         ("train_speed.py", ["HalfCheetah-v5, 1 env (anchor)", "2 envs, SubprocVecEnv"]),
         ("soak.py", ["undetected penetration", "memory growth after warm-up", "PASSED"]),
         ("fast_core.py", ["BubbleRob batch N=64, 2 threads", "one thread to two", "machine:"]),
+        ("localisation.py", ["| 0-1 | 2 |", "| 7000-7001 | 2 |", "sim s per CPU s"]),
         pytest.param(
             "live_speed.py",
             ["| off |", "| 64x64 |", "received msg/s"],
