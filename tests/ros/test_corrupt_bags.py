@@ -292,3 +292,20 @@ def test_recovering_a_lone_storage_file_among_others_writes_beside_it(bags, tmp_
     assert _digest(folder / "a.mcap") == before  # not renamed, not rewritten
     assert sorted(p.name for p in folder.iterdir()) == ["a.mcap", "a.recovered", "notes.txt"]
     assert replay_bag(folder / "a.recovered").ok
+
+
+def test_a_damaged_metadata_yaml_is_corrupt_and_recover_salvages_from_the_storage_file(
+    bags, tmp_path, capsys
+):
+    bag = _copy(bags[("mcap", "zstd")], tmp_path)
+    metadata = bag / "metadata.yaml"
+    metadata.write_text(
+        metadata.read_text().replace("relative_file_paths:", "relative_file_p@ths:")
+    )
+    before = _digest(bag)
+    assert cli.main(["info", str(bag)]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert line.startswith(f"bubblerob info: corrupt bag: {metadata} does not read as rosbag2")
+    assert cli.main(["recover", str(bag)]) == 0
+    assert f"salvaged {EPISODES} complete episode(s)" in capsys.readouterr().out
+    assert _digest(bag) == before and replay_bag(tmp_path / f"{bag.name}.recovered").ok

@@ -20,6 +20,7 @@ __all__ = [
     "CorruptBagError",
     "bag_root",
     "is_finished",
+    "metadata_damage",
     "storage_file",
 ]
 
@@ -47,14 +48,26 @@ def _listed_files(folder: Path) -> list[str] | None:
         raise CorruptBagError(f"{metadata} does not read as rosbag2 metadata ({error})") from None
 
 
-def _lone_storage_file(folder: Path) -> Path | None:
-    """The folder's one storage file when it holds nothing else (SQLite's own files aside)."""
+def _lone_storage_file(folder: Path, beside: tuple[str, ...] = ()) -> Path | None:
+    """The folder's one storage file when it holds nothing else.
+
+    SQLite's own files (journal, WAL) and the names in ``beside`` are allowed beside it.
+    """
     entries = sorted(folder.iterdir())
     storage = [p for p in entries if p.suffix in STORAGE_SUFFIXES and p.is_file()]
     if len(storage) != 1:
         return None
-    allowed = {storage[0].name + suffix for suffix in ("", *_SQLITE_SIDECARS)}
+    allowed = {storage[0].name + suffix for suffix in ("", *_SQLITE_SIDECARS)} | set(beside)
     return storage[0] if all(p.name in allowed for p in entries) else None
+
+
+def metadata_damage(folder: Path) -> str | None:
+    """Why the folder's ``metadata.yaml`` does not read, or ``None`` (it reads, or is absent)."""
+    try:
+        _listed_files(folder)
+    except CorruptBagError as error:
+        return error.where
+    return None
 
 
 def _not_one_bag(folder: Path) -> BagLayoutError:
@@ -83,6 +96,10 @@ def bag_root(path: str | Path) -> Path:
     if not path.exists():
         raise FileNotFoundError(f"no bag at {path}")
     if path.is_dir():
+        if metadata_damage(path) is not None:  # a damaged metadata.yaml beside one storage file
+            if _lone_storage_file(path, ("metadata.yaml",)) is not None:
+                return path  # is a bag: reading it reports the damage; recover salvages it
+            _listed_files(path)  # raises, naming the damage
         if _listed_files(path) is not None or _lone_storage_file(path) is not None:
             return path
         raise _not_one_bag(path)
@@ -105,10 +122,10 @@ def storage_file(root: Path) -> Path:
     """The file holding a bag's messages: ``root`` itself, or a ROS 2 folder's storage file."""
     if root.is_file():
         return root
-    listed = _listed_files(root)
+    listed = None if metadata_damage(root) else _listed_files(root)
     if listed:
         return root / listed[0]
-    lone = _lone_storage_file(root)
+    lone = _lone_storage_file(root, ("metadata.yaml",))
     if lone is None:
         raise _not_one_bag(root)
     return lone

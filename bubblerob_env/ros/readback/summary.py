@@ -21,6 +21,7 @@ from bubblerob_env.ros.readback.layout import (
     BagLayoutError,
     bag_root,
     is_finished,
+    metadata_damage,
     storage_file,
 )
 from bubblerob_env.ros.readback.mcap_scan import check_mcap_crcs
@@ -169,7 +170,9 @@ def open_reader(root: Path) -> Iterator[Any]:
         yield read_unfinished(root)
         return
     file = storage_file(root)
-    damage = check_mcap_crcs(file) if file.suffix == ".mcap" else None
+    damage = metadata_damage(root) if root.is_dir() else None
+    if damage is None and file.suffix == ".mcap":
+        damage = check_mcap_crcs(file)
     if damage is not None:
         raise CorruptBagError(damage)
     reader = AnyReader([root])
