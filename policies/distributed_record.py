@@ -10,6 +10,7 @@ system).
 
 from __future__ import annotations
 
+import os
 import shlex
 import sys
 from dataclasses import dataclass
@@ -18,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from policies.distributed import (
+    LOCAL,
     ONE_STREAM_POLICIES,
     TASK_RETRIES,
     check_address,
@@ -128,6 +130,17 @@ def _check_targets(out: Path, names: list[str], fmt: str, overwrite: bool) -> No
         raise ValueError(f"--out {out}: {error.strerror or error}") from None
 
 
+def _plan(args: Any, chunk_size: int | None, cpus: float) -> list[range]:
+    """The chunks of seeds, their bags checked (see :func:`_check_targets`)."""
+    size = chunk_size or chunk_size_for(args.episodes, cpus)
+    if args.policy in ONE_STREAM_POLICIES:
+        size = args.episodes
+    chunks = seed_chunks(args.seed, args.episodes, size)
+    names = [chunk_bag_name(args.policy, chunk) for chunk in chunks]
+    _check_targets(args.out, names, args.format, args.overwrite)
+    return chunks
+
+
 def record_on_ray(
     args: Any, *, chunk_size: int | None = None, num_cpus: int | None = None
 ) -> list[RecordChunk]:
@@ -138,14 +151,12 @@ def record_on_ray(
     from tqdm import tqdm
 
     recorder_kwargs = _recorder_kwargs(args)
+    plan: list[range] | None = None
+    if args.ray == LOCAL:  # the CPUs are known: refuse an existing bag before a cluster starts
+        plan = _plan(args, chunk_size, num_cpus or os.cpu_count() or 1)
     with ray_session(args.ray, num_cpus) as ray:
-        cpus = ray.cluster_resources().get("CPU", 1.0)
-        size = chunk_size or chunk_size_for(args.episodes, cpus)
-        if args.policy in ONE_STREAM_POLICIES:
-            size = args.episodes
-        chunks = seed_chunks(args.seed, args.episodes, size)
+        chunks = plan or _plan(args, chunk_size, ray.cluster_resources().get("CPU", 1.0))
         names = [chunk_bag_name(args.policy, chunk) for chunk in chunks]
-        _check_targets(args.out, names, args.format, args.overwrite)
         task = ray.remote(num_cpus=1, max_retries=TASK_RETRIES)(record_chunk)
         topics = (args.topics, args.namespace)
         refs = [

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import time
+from pathlib import Path
+
 import pytest
 from ray_helpers import bubblerob_in_netns, need_netns
 
@@ -41,3 +44,17 @@ def test_bad_addresses_are_one_line(address: str, code: int, message: str) -> No
     assert done.returncode == code
     assert done.stderr.strip().splitlines()[-1].startswith(f"bubblerob evaluate: {message}")
     assert "Traceback" not in done.stderr
+
+
+def test_record_refuses_an_existing_bag_before_starting_a_cluster(tmp_path: Path) -> None:
+    need_netns()
+    (tmp_path / "bubblerob_reactive_seed4-4").mkdir()  # the bag of the one chunk: seeds 4..4
+    argv = ["record", "--policy", "reactive", "--episodes", "1", "--seed", "4", "--ray", "local"]
+    start = time.monotonic()
+    done = bubblerob_in_netns([*argv, "--out", str(tmp_path)], timeout_s=60)
+    assert done.returncode == 2
+    assert done.stderr.strip().splitlines()[-1] == (
+        f"bubblerob record: bag {tmp_path}/bubblerob_reactive_seed4-4 already exists; "
+        "pass --overwrite to replace it"
+    )
+    assert time.monotonic() - start < 10, "a cluster was started first"
