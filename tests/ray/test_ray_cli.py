@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import sys
 import time
 from pathlib import Path
 
 import pytest
-from ray_helpers import bubblerob_in_netns, need_netns
+from ray_helpers import bubblerob_in_netns, in_netns, need_netns
 
 from bubblerob_env.cli import main as bubblerob
 
@@ -58,3 +59,40 @@ def test_record_refuses_an_existing_bag_before_starting_a_cluster(tmp_path: Path
         "pass --overwrite to replace it"
     )
     assert time.monotonic() - start < 10, "a cluster was started first"
+
+
+HIDE_RAY = """
+import sys
+from importlib import metadata
+real = metadata.distribution
+def distribution(name):
+    if name == "ray":  # the package's metadata says that Ray is not installed
+        raise metadata.PackageNotFoundError(name)
+    return real(name)
+metadata.distribution = distribution
+from bubblerob_env.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["evaluate", "--policy", "laser", "--episodes", "1"],
+        ["record", "--policy", "laser", "--out", "bags"],
+        ["train", "--timesteps", "64", "--seeds", "0,1"],
+    ],
+)
+def test_without_ray_the_extra_is_named_in_one_line(command: list[str], tmp_path: Path) -> None:
+    need_netns()  # were the check to fail, Ray would start: in a namespace all the same
+    if command[0] == "train":
+        pytest.importorskip("stable_baselines3", reason="the [train] extra is not installed")
+    argv = [sys.executable, "-c", HIDE_RAY, *command, "--ray", "local"]
+    done = in_netns(argv, timeout_s=60, cwd=tmp_path)
+    assert done.returncode == 1
+    assert "Traceback" not in done.stderr
+    (line,) = done.stderr.strip().splitlines()
+    assert line == (
+        f"bubblerob {command[0]} --ray needs the [ray] extra: pip install 'bubblerob[ray]' "
+        "(missing: ray)"
+    )
