@@ -15,8 +15,8 @@ Pipeline (see :mod:`~bubblerob_env.vision.segment` for the pixel work):
    typical half width (:data:`CUT_HALF_WIDTH`, a prior) beyond the edge.
 5. Distance from the ground contact: the camera is level at a known height, so the silhouette's
    lowest row gives the depth of the nearest point of its base (or, when the frame cuts the base
-   off, the top row and the obstacles' known height); half the apparent width is added for the
-   depth of the axis.
+   off, the top row and the obstacles' known height; when it cuts both, a fraction of the depth
+   at which that starts); half the apparent width is added for the depth of the axis.
 
 It needs obstacles in the palette's colours (``obstacle_colours=True``); the default material's
 blue counts as the palette's blue.
@@ -40,6 +40,9 @@ from bubblerob_env.vision.segment import components, pixel_codes
 __all__ = ["Detection", "Recogniser"]
 
 MAX_BOX_LEVELS = 2
+NEAR_FRACTION = 0.75
+"""Where the frame cuts an object's top and base, its depth is taken as this fraction of the
+largest depth at which that happens (chosen on seeds 0-49)."""
 CUT_HALF_WIDTH = {"cylinder": 0.2, "box": 0.28}
 """Metres from an object's axis to its silhouette's edge assumed where the frame cuts it and its
 shading cannot tell; chosen on seeds 0-49 for the env's default obstacle sizes (radius or half
@@ -156,15 +159,21 @@ class Recogniser:
         return detections
 
     def _near_depth(self, v_min: int, v_max: int) -> float:
-        """Depth of the nearest point of an object's base from its rows (NaN: both cut off)."""
+        """Depth of the nearest point of an object's base from its rows.
+
+        From the bottom row, or the top one where the frame cuts the base off. Where it cuts
+        both, the object is nearer than the depth at which its base and top meet the frame's
+        edges: that bound, scaled by :data:`NEAR_FRACTION`.
+        """
         height, focal = self.spec.height, self.spec.focal_length
         centre_row = (height - 1) / 2.0
+        rise = self.obstacle_height - self.camera_height
         if v_max < height - 1 and v_max + 0.5 > centre_row:
             return focal * self.camera_height / (v_max + 0.5 - centre_row)
         if v_min > 0 and centre_row > v_min - 0.5:
-            rise = self.obstacle_height - self.camera_height
             return focal * rise / (centre_row - (v_min - 0.5))
-        return math.nan
+        bound = min(self.camera_height, rise) * focal / (centre_row + 0.5)
+        return NEAR_FRACTION * bound
 
     def _detection(
         self, kind: str, colour: str | None, stat: NDArray[np.int64], bright_column: float
@@ -192,7 +201,7 @@ class Recogniser:
             else:
                 bearing, distance = _beyond_edge(depth, inner, cut_left, self.cut_half_width[kind])
                 middle = (left + right) / 2.0
-                if math.isnan(bearing) or (bearing < middle if cut_left else bearing > middle):
+                if bearing < middle if cut_left else bearing > middle:
                     bearing, distance = middle, depth / math.cos(middle)
         else:
             bearing = (left + right) / 2.0
