@@ -191,7 +191,8 @@ def gather(
 
 
 def _check_seeds(chunks: Sequence[EvalChunk], policy: str, expected: range) -> None:
-    got = [seed for chunk in chunks if chunk.policy == policy for seed in chunk.seeds]
+    """Raise unless ``chunks`` (one row's) hold each expected seed once, in order."""
+    got = [seed for chunk in chunks for seed in chunk.seeds]
     if got != list(expected) or any(len(c.seeds) != len(c.episodes) for c in chunks):
         raise RuntimeError(f"Ray returned seeds {got} for {policy}, expected {list(expected)}")
 
@@ -224,14 +225,15 @@ def evaluate_on_ray(
         )
         task = ray.remote(num_cpus=1, max_retries=TASK_RETRIES)(evaluate_chunk)
         work = [
-            (name, chunk)
-            for name in policy_names
+            (row, name, chunk)
+            for row, name in enumerate(policy_names)
             for chunk in seed_chunks(
                 seed, episodes, episodes if name in ONE_STREAM_POLICIES else size
             )
         ]
         refs = [
-            task.remote(name, list(chunk), env_id, dict(env_kwargs or {})) for name, chunk in work
+            task.remote(name, list(chunk), env_id, dict(env_kwargs or {}))
+            for _, name, chunk in work
         ]
         total = episodes * len(policy_names)
         with tqdm(
@@ -241,10 +243,10 @@ def evaluate_on_ray(
                 ray, refs, lambda c: bar.update(len(c.seeds)), timeout_s
             )
     results = []
-    for name in policy_names:
-        _check_seeds(chunks, name, seeds)
-        stats = [e for chunk in chunks if chunk.policy == name for e in chunk.episodes]
-        results.append(summarize(str(name), stats))
+    for row, name in enumerate(policy_names):  # a policy named twice gets two rows, as serially
+        own = [chunk for (of, _, _), chunk in zip(work, chunks, strict=True) if of == row]
+        _check_seeds(own, name, seeds)
+        results.append(summarize(str(name), [e for chunk in own for e in chunk.episodes]))
     return results, chunks
 
 

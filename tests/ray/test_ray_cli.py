@@ -12,7 +12,8 @@ from ray_helpers import bubblerob_in_netns, in_netns, need_netns
 from bubblerob_env.cli import main as bubblerob
 
 EVALUATE = [
-    "evaluate", "--policy", "reactive", "--policy", "laser", "--episodes", "4", "--seed", "7",
+    "evaluate", "--policy", "reactive", "--policy", "laser", "--policy", "reactive",
+    "--episodes", "4", "--seed", "7",
     "--env-kwargs", '{"max_episode_steps": 100}',
 ]  # fmt: skip
 
@@ -26,7 +27,7 @@ def test_evaluate_on_a_local_cluster_prints_the_serial_table(
     assert bubblerob(EVALUATE) == 0
     serial = capsys.readouterr().out
     assert done.stdout == serial
-    assert "8/8" in done.stderr  # the bar counted the 2 x 4 episodes
+    assert "12/12" in done.stderr  # the bar counted the 3 x 4 episodes (a policy named twice)
     assert "Ray tasks on 1 node(s)" in done.stderr
 
 
