@@ -97,3 +97,18 @@ def test_without_ray_the_extra_is_named_in_one_line(command: list[str], tmp_path
         f"bubblerob {command[0]} --ray needs the [ray] extra: pip install 'bubblerob[ray]' "
         "(missing: ray)"
     )
+
+
+def test_readmes_ray_commands_parse() -> None:
+    """README's "Past one machine" commands are ones the CLI takes (run for real above)."""
+    import shlex
+
+    from bubblerob_env.cli import build_parser
+
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    section = readme.split("## Past one machine\n", 1)[1].split("\n## ", 1)[0]
+    commands = [line for line in section.splitlines() if line.startswith("bubblerob ")]
+    assert [shlex.split(c)[1] for c in commands] == ["evaluate", "record", "train"]
+    for command in commands:
+        args = build_parser().parse_args(shlex.split(command)[1:])
+        assert args.ray == "local", command
