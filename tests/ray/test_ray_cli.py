@@ -100,7 +100,7 @@ def test_without_ray_the_extra_is_named_in_one_line(command: list[str], tmp_path
 
 
 def test_readmes_ray_commands_parse() -> None:
-    """README's "Past one machine" commands are ones the CLI takes (run for real above)."""
+    """README's "Past one machine" commands are ones the CLI takes (smaller ones run above)."""
     import shlex
 
     from bubblerob_env.cli import build_parser
