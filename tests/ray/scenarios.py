@@ -45,7 +45,7 @@ def _rows_and_episodes(results: Any, chunks: Any) -> dict[str, Any]:
 
 
 @contextlib.contextmanager
-def killing_one(task_name: str, after_s: float = 0.3) -> Iterator[list[int]]:
+def killing_one(task_name: str, after_s: float = 0.1) -> Iterator[list[int]]:
     """SIGKILL the first worker seen running ``task_name`` for ``after_s``: a mid-task death."""
     killed: list[int] = []
     stop = threading.Event()

@@ -36,7 +36,7 @@ def ray_runs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, 
         "evaluate": {"episodes": 6, "seed": 1000, "env_kwargs": SHORT},
         "pickling": {"steps": 120, "env_kwargs": {}},
         "evaluate_with_kill": {
-            "episodes": 8, "seed": 1000, "env_kwargs": KILL_KWARGS, "chunk_size": 4,
+            "episodes": 12, "seed": 1000, "env_kwargs": KILL_KWARGS, "chunk_size": 6,
         },
         "record": {"argv": [*RECORD_ARGS, *RECORD_START, "--out", str(out / "bags")], "kill": True},
     }  # fmt: skip
@@ -79,9 +79,9 @@ def test_killed_worker_is_retried_without_losing_or_repeating(
 ) -> None:
     result = ray_runs[1]["evaluate_with_kill"]
     assert len(result["killed"]) == 1, "no evaluation worker was seen running to kill"
-    assert [e["seed"] for e in result["episodes"]] == list(range(1000, 1008))
+    assert [e["seed"] for e in result["episodes"]] == list(range(1000, 1012))
     assert result["rows"] == [
-        dataclasses.asdict(evaluate("laser", 8, 1000, env_kwargs=KILL_KWARGS))
+        dataclasses.asdict(evaluate("laser", 12, 1000, env_kwargs=KILL_KWARGS))
     ]
 
 
