@@ -8,27 +8,23 @@ steps (:mod:`bubblerob_env.vision.evaluation`). Per seed range and image size th
 precision, recall and class accuracy over the objects (obstacles and walls) of >= 50 pixels, and
 the mean bearing error over paired obstacles: all of them, and those not cut by the frame's left or
 right edge. The spread is the lowest and highest value over blocks of 10 seeds. Speed is the
-recogniser alone on the frames already rendered, frames per CPU second of one thread. Defaults:
-seeds 0-49 (the thresholds were chosen looking at these) and 8000-8099 (held out, never looked
-at while tuning). ``--quick`` runs 2 seeds of each at 64x64.
+recogniser alone on the frames already rendered, frames per CPU second (its numba code is
+serial: one thread). Defaults: seeds 0-49 (the thresholds and priors were chosen looking at
+these) and 8000-8099 (held out, never used to choose). ``--quick`` runs 2 seeds of each at 64x64.
 """
 
 from __future__ import annotations
 
-import os
+import argparse
+import json
+import sys
+import time
+from typing import Any
 
-os.environ.setdefault("NUMBA_NUM_THREADS", "1")
-
-import argparse  # noqa: E402
-import json  # noqa: E402
-import sys  # noqa: E402
-import time  # noqa: E402
-from typing import Any  # noqa: E402
-
-import bubblerob_env  # noqa: E402, F401  (registers BubbleRob-v0)
-from bubblerob_env.vision.evaluation import LabelledFrame, labelled_frames  # noqa: E402
-from bubblerob_env.vision.recognise import Recogniser  # noqa: E402
-from bubblerob_env.vision.scoring import Score  # noqa: E402
+import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
+from bubblerob_env.vision.evaluation import LabelledFrame, labelled_frames
+from bubblerob_env.vision.recognise import Recogniser
+from bubblerob_env.vision.scoring import Score
 
 BLOCK = 10
 METRICS = ("precision", "recall", "class_accuracy", "bearing_error_mean_deg")

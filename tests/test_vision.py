@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import math
 import re
-import subprocess
-import sys
 from pathlib import Path
+from types import ModuleType
 
 import gymnasium as gym
 import mujoco
@@ -171,41 +171,33 @@ def test_score_counts_pairs_misses_and_false_positives() -> None:
     assert summary["distance_error_mean_relative"] == pytest.approx(0.1)
 
 
-def test_benchmark_prints_json() -> None:
-    result = subprocess.run(
-        [
-            sys.executable,
-            str(ROOT / "bench" / "recognition.py"),
-            "--seeds",
-            "5-5",
-            "--sizes",
-            "48",
-            "--json",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=True,
+def _bench_module() -> ModuleType:
+    spec = importlib.util.spec_from_file_location(
+        "bench_recognition", ROOT / "bench" / "recognition.py"
     )
-    (row,) = json.loads(result.stdout)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_benchmark_prints_json(capsys: pytest.CaptureFixture[str]) -> None:
+    bench = _bench_module()
+    assert bench.main(["--seeds", "5-5", "--sizes", "48", "--json"]) == 0
+    (row,) = json.loads(capsys.readouterr().out)
     assert row["seeds"] == "5-5" and row["size"] == "48x48" and row["images"] >= 1
     assert row["frames_per_s"] > 0
-    bad = subprocess.run(
-        [sys.executable, str(ROOT / "bench" / "recognition.py"), "--sizes", "2"],
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
-    assert bad.returncode == 2 and "--sizes must be in [16, 1024] pixels, got 2" in bad.stderr
+    with pytest.raises(SystemExit) as exit_info:
+        bench.main(["--sizes", "2"])
+    assert exit_info.value.code == 2
+    assert "--sizes must be in [16, 1024] pixels, got 2" in capsys.readouterr().err
 
 
-def test_readme_recognise_example_runs() -> None:
+def test_readme_recognise_example_runs(capsys: pytest.CaptureFixture[str]) -> None:
     readme = (ROOT / "README.md").read_text()
     section = readme.split("## Recognise\n", 1)[1].split("\n## ", 1)[0]
     code = section.split("```python\n", 1)[1].split("```", 1)[0]
-    result = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, timeout=300, check=True
-    )
+    exec(compile(code, "README.md", "exec"), {"__name__": "readme"})
     printed = re.search(r"```\n(seen .*?)```", section, flags=re.DOTALL)
     assert printed is not None
-    assert result.stdout == printed.group(1)
+    assert capsys.readouterr().out == printed.group(1)
