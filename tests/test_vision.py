@@ -201,3 +201,19 @@ def test_readme_recognise_example_runs(capsys: pytest.CaptureFixture[str]) -> No
     printed = re.search(r"```\n(seen .*?)```", section, flags=re.DOTALL)
     assert printed is not None
     assert capsys.readouterr().out == printed.group(1)
+
+
+@pytest.mark.parametrize("left_edge", [True, False])
+def test_cut_cylinder_is_solved_from_one_edge_and_its_brightest_point(left_edge: bool) -> None:
+    # A circle of radius 0.2 m whose axis is 1.2 m ahead and 0.5 m to the side (camera frame:
+    # depth forward, lateral positive left); the edge in view is the tangent on the other side.
+    from bubblerob_env.vision.recognise import _cylinder_from_edge
+
+    radius, depth, lateral = 0.2, 1.2, (-0.5 if left_edge else 0.5)
+    distance = math.hypot(depth, lateral)
+    centre_bearing = math.atan2(lateral, depth)
+    edge = centre_bearing + (1 if left_edge else -1) * math.asin(radius / distance)
+    bright = math.atan2(lateral, depth - radius)  # the point whose normal faces the camera
+    bearing, found_distance = _cylinder_from_edge(depth - radius, bright, edge, left_edge)
+    assert bearing == pytest.approx(centre_bearing, abs=1e-12)
+    assert found_distance == pytest.approx(distance, abs=1e-12)
