@@ -112,6 +112,10 @@ def test_recogniser_finds_the_labelled_obstacles() -> None:
     with pytest.raises(ValueError, match=r"frame shape \(32, 32, 3\) is not the camera's"):
         recogniser(np.zeros((32, 32, 3), np.uint8))
     assert recogniser(np.full((64, 64, 3), 200, np.uint8)) == []  # grey: nothing
+    no_camera = gym.make("BubbleRob-v0")
+    no_camera.reset(seed=0)
+    with pytest.raises(ValueError, match="the env has no camera: make it with camera=True"):
+        Recogniser.for_env(no_camera.unwrapped)
 
 
 @pytest.mark.parametrize("kind", ["cylinder", "box"])

@@ -112,6 +112,8 @@ class Recogniser:
     @classmethod
     def for_env(cls, env: Any, min_pixels: int = 8) -> Recogniser:
         """One for the camera of ``env`` (a ``BubbleRobEnv``, unwrapped, after a reset)."""
+        if env.camera_spec is None:
+            raise ValueError("the env has no camera: make it with camera=True or a camera size")
         # The arena's floor is the plane z = 0; every obstacle slot has the obstacles' height.
         camera_height = CameraPose.of(env.model, env.data).z
         box_slot = env.model.geom(f"{names.BOX_SLOT_PREFIX}0").id
