@@ -252,7 +252,13 @@ def evaluate_on_ray(
 
 @contextmanager
 def command_errors(command: str) -> Iterator[None]:
-    """One line for what goes wrong with ``--ray``; exit 2 (bad address) or 1 (no cluster)."""
+    """One line for what goes wrong with ``--ray``, and the exit status.
+
+    2: a bad address or argument; 1: no cluster, or a task that failed past its retries; 130:
+    Ctrl-C.
+    """
+    from ray.exceptions import RayError, RayTaskError
+
     try:
         yield
     except ValueError as error:
@@ -261,6 +267,18 @@ def command_errors(command: str) -> Iterator[None]:
     except ConnectionError as error:
         print(f"bubblerob {command}: {error}", file=sys.stderr)
         raise SystemExit(1) from None
+    except KeyboardInterrupt:
+        print(f"\nbubblerob {command}: stopped; the cluster's tasks are cancelled", file=sys.stderr)
+        raise SystemExit(130) from None
+    except RayError as error:  # the remote traceback is in the worker's log; its cause here
+        cause = error.cause if isinstance(error, RayTaskError) else error
+        print(f"bubblerob {command}: a Ray task failed: {_first_line(cause)}", file=sys.stderr)
+        raise SystemExit(1) from None
+
+
+def _first_line(error: BaseException) -> str:
+    lines = str(error).strip().splitlines()
+    return f"{type(error).__name__}: {lines[0] if lines else ''}"
 
 
 def evaluate_command(args: Any) -> list[EvalResult]:

@@ -112,3 +112,29 @@ def test_readmes_ray_commands_parse() -> None:
     for command in commands:
         args = build_parser().parse_args(shlex.split(command)[1:])
         assert args.ray == "local", command
+
+
+def test_ctrl_c_stops_the_run_in_one_line(tmp_path: Path) -> None:
+    need_netns()
+    import signal
+    import subprocess
+
+    argv = [*EVALUATE[:5], "--episodes", "100", "--ray", "local"]
+    script = "ip link set lo up && exec " + " ".join(
+        [sys.executable, "-m", "bubblerob_env.cli", *argv]
+    )
+    stderr = tmp_path / "stderr"
+    with stderr.open("w") as sink:
+        run = subprocess.Popen(["unshare", "-n", "bash", "-c", script], stderr=sink, text=True)
+        try:
+            deadline = time.monotonic() + 120
+            while "/200 [" not in stderr.read_text() and time.monotonic() < deadline:
+                time.sleep(0.2)  # until the cluster is up and the bar shows
+            assert "/200 [" in stderr.read_text(), stderr.read_text()[-2000:]
+            run.send_signal(signal.SIGINT)
+            assert run.wait(timeout=60) == 130
+        finally:
+            run.kill()
+    lines = stderr.read_text().strip().splitlines()
+    assert lines[-1] == "bubblerob evaluate: stopped; the cluster's tasks are cancelled"
+    assert "Traceback" not in stderr.read_text()
