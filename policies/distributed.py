@@ -251,11 +251,11 @@ def evaluate_on_ray(
 
 
 @contextmanager
-def command_errors(command: str) -> Iterator[None]:
+def command_errors(command: str, stopped: str = "") -> Iterator[None]:
     """One line for what goes wrong with ``--ray``, and the exit status.
 
     2: a bad address or argument; 1: no cluster, or a task that failed past its retries; 130:
-    Ctrl-C.
+    Ctrl-C (``stopped`` is added to its line).
     """
     from ray.exceptions import RayError, RayTaskError
 
@@ -268,7 +268,10 @@ def command_errors(command: str) -> Iterator[None]:
         print(f"bubblerob {command}: {error}", file=sys.stderr)
         raise SystemExit(1) from None
     except KeyboardInterrupt:
-        print(f"\nbubblerob {command}: stopped; the cluster's tasks are cancelled", file=sys.stderr)
+        print(
+            f"\nbubblerob {command}: stopped; the cluster's tasks are cancelled{stopped}",
+            file=sys.stderr,
+        )
         raise SystemExit(130) from None
     except RayError as error:  # the remote traceback is in the worker's log; its cause here
         cause = error.cause if isinstance(error, RayTaskError) else error

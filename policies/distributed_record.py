@@ -196,7 +196,8 @@ def record_command(args: Any) -> int:
     from bubblerob_env.extras import require_extra
 
     require_extra("ray", "bubblerob record --ray")
-    with command_errors("record"):
+    unfinished = "; `bubblerob recover BAG` salvages an unfinished bag's complete episodes"
+    with command_errors("record", unfinished):
         check_address(args.ray)
         try:
             _check_policy(args)
