@@ -309,3 +309,20 @@ def test_a_damaged_metadata_yaml_is_corrupt_and_recover_salvages_from_the_storag
     assert cli.main(["recover", str(bag)]) == 0
     assert f"salvaged {EPISODES} complete episode(s)" in capsys.readouterr().out
     assert _digest(bag) == before and replay_bag(tmp_path / f"{bag.name}.recovered").ok
+
+
+@pytest.mark.parametrize("fmt", ["mcap", "sqlite3"])
+def test_a_wrong_count_in_metadata_yaml_is_corrupt_not_printed(bags, tmp_path, capsys, fmt):
+    bag = _copy(bags[(fmt, "zstd" if fmt == "mcap" else "none")], tmp_path)
+    metadata = bag / "metadata.yaml"
+    text = metadata.read_text()
+    topic_at = text.index("name: /odom")  # its list item starts with its count
+    count_at = text.rindex("message_count: ", 0, topic_at) + len("message_count: ")
+    count = int(text[count_at:].split()[0])
+    metadata.write_text(text[:count_at] + str(count + 1) + text[count_at + len(str(count)) :])
+    assert cli.main(["info", str(bag)]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert f"{metadata} counts {count + 1} messages on /odom, " in line
+    assert line.endswith(f"holds {count}")
+    assert cli.main(["recover", str(bag)]) == 0  # the storage file is whole
+    assert f"salvaged {EPISODES} complete episode(s)" in capsys.readouterr().out

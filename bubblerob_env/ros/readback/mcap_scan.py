@@ -13,10 +13,13 @@ that does not decompress or parse: *damage*, reported with its offset and chunk 
 
 from __future__ import annotations
 
+import mmap
+import os
 import struct
 import sys
 import zlib
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from bubblerob_env.ros.readback.scan import Scan
@@ -26,7 +29,7 @@ if sys.version_info >= (3, 14):  # the zstd that rosbags uses
 else:
     from backports import zstd
 
-__all__ = ["MAGIC", "check_mcap_crcs", "has_mcap_footer", "scan_mcap"]
+__all__ = ["MAGIC", "mapped", "check_mcap_crcs", "has_mcap_footer", "scan_mcap"]
 
 MAGIC = b"\x89MCAP0\r\n"
 _OP_FOOTER, _OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK, _OP_DATA_END = 2, 3, 4, 5, 6, 15
@@ -188,8 +191,20 @@ def has_mcap_footer(path: Path) -> bool:
     return tail[0] == _OP_FOOTER and tail.endswith(MAGIC)
 
 
-def _crc(data: bytes, start: int, stop: int) -> int:
-    return zlib.crc32(memoryview(data)[start:stop])
+@contextmanager
+def mapped(path: Path) -> Iterator[bytes | mmap.mmap]:
+    """The file's bytes, mapped (not read: bags run to gigabytes)."""
+    with path.open("rb") as stream:
+        if os.fstat(stream.fileno()).st_size == 0:
+            yield b""
+            return
+        with mmap.mmap(stream.fileno(), 0, access=mmap.ACCESS_READ) as data:
+            yield data
+
+
+def _crc(data: bytes | mmap.mmap, start: int, stop: int) -> int:
+    with memoryview(data) as view:
+        return zlib.crc32(view[start:stop])
 
 
 def check_mcap_crcs(path: Path) -> str | None:
@@ -198,9 +213,13 @@ def check_mcap_crcs(path: Path) -> str | None:
     Returns ``None`` if they match (or were not computed), else the damage in words, located to
     the chunk when it is in one.
     """
-    data = path.read_bytes()
+    with mapped(path) as data:
+        return _check_crcs(path, data)
+
+
+def _check_crcs(path: Path, data: bytes | mmap.mmap) -> str | None:
     footer_at = len(data) - len(MAGIC) - _FOOTER_SIZE
-    if footer_at < len(MAGIC) or data[footer_at] != _OP_FOOTER or not data.endswith(MAGIC):
+    if footer_at < len(MAGIC) or data[footer_at] != _OP_FOOTER or data[-len(MAGIC) :] != MAGIC:
         return f"{path}: no MCAP footer at the end of the file (byte {max(footer_at, 0)})"
     summary_start, _, summary_crc = struct.unpack_from("<QQI", data, footer_at + 9)
     end = summary_start or footer_at

@@ -9,6 +9,8 @@ name they were recorded under.
 from __future__ import annotations
 
 import json
+import sqlite3
+import struct
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -17,6 +19,7 @@ from typing import Any
 
 from rosbags.highlevel import AnyReader
 
+from bubblerob_env.ros.readback.counts import storage_counts
 from bubblerob_env.ros.readback.layout import (
     BagLayoutError,
     bag_root,
@@ -145,6 +148,27 @@ def _ros1_damage(root: Path, scan: Scan, error: BaseException) -> str:
     return f"{root}: its index (from byte {index}) is damaged: {type(error).__name__}: {error}"
 
 
+def _metadata_counts_damage(reader: Any, root: Path) -> str | None:
+    """Where ``metadata.yaml``'s message counts differ from the storage file's own, or ``None``."""
+    file = storage_file(root)
+    try:
+        stored = storage_counts(file)
+    except (struct.error, UnicodeDecodeError, sqlite3.Error) as error:
+        return locate_damage(root, error)
+    if stored is None:
+        return None
+    listed: dict[str, int] = {}
+    for connection in reader.connections:
+        listed[connection.topic] = listed.get(connection.topic, 0) + connection.msgcount
+    for topic in sorted(set(stored) | {t for t, n in listed.items() if n}):
+        if listed.get(topic, 0) != stored.get(topic, 0):
+            return (
+                f"{root / 'metadata.yaml'} counts {listed.get(topic, 0)} messages on {topic}, "
+                f"{file.name} holds {stored.get(topic, 0)}"
+            )
+    return None
+
+
 def _cut_short_in_its_index(root: Path) -> bool:
     """A finished ROS 1 bag whose file ends inside its index: its data is whole."""
     if root.suffix != ".bag":
@@ -184,6 +208,9 @@ def open_reader(root: Path) -> Iterator[Any]:
             return
         raise CorruptBagError(locate_damage(root, error)) from None
     try:
+        damage = _metadata_counts_damage(reader, root) if root.is_dir() else None
+        if damage is not None:
+            raise CorruptBagError(damage)
         yield _CheckedReader(reader, root)
     finally:
         reader.close()
