@@ -11,6 +11,9 @@ bench/localisation.py measures the same on 50 held-out seeds.
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -128,3 +131,19 @@ def test_convergence_needs_a_settled_second_or_the_end():
     assert first_settled(within, 3) == 4  # 4..6 hold; a lapse later does not undo it
     assert first_settled(within, 5) == 9  # no run of 5: the run that lasts to the end
     assert first_settled(np.zeros(4, dtype=bool), 2) is None
+
+
+def test_readme_figure_command_writes_the_picture(tmp_path):
+    out = tmp_path / "localisation.png"
+    root = Path(__file__).resolve().parents[1]
+    result = subprocess.run(
+        [sys.executable, "docs/localisation_figure.py", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=root,
+        check=False,
+    )
+    assert result.returncode == 0, result.stderr
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "python docs/localisation_figure.py" in (root / "README.md").read_text()
