@@ -64,6 +64,16 @@ def _stamp(header: Any) -> int:
     return int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec)
 
 
+def _check_episode(path: str | Path, episode: int, count: int) -> None:
+    if not count:
+        raise MapError(f"{path} holds no bubblerob episode metadata: nothing to map")
+    if isinstance(episode, bool) or not 0 <= episode < count:
+        raise MapError(
+            f"--episode must be an episode index from 0 to {count - 1} (the bag holds {count}), "
+            f"got {episode!r}"
+        )
+
+
 def map_bag(
     path: str | Path, episode: int = 0, resolution: float = DEFAULT_RESOLUTION
 ) -> MapResult:
@@ -78,13 +88,7 @@ def map_bag(
 
     with open_reader(bag_root(path)) as reader:
         _, episodes = find_episodes(reader)
-        if not episodes:
-            raise MapError(f"{path} holds no bubblerob episode metadata: nothing to map")
-        if isinstance(episode, bool) or not 0 <= episode < len(episodes):
-            raise MapError(
-                f"--episode must be an episode index from 0 to {len(episodes) - 1} (the bag "
-                f"holds {len(episodes)}), got {episode!r}"
-            )
+        _check_episode(path, episode, len(episodes))
         meta = episodes[episode]
         start = int(meta["start_time_ns"])
         end = int(episodes[episode + 1]["start_time_ns"]) if episode + 1 < len(episodes) else None
