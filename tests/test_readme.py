@@ -190,15 +190,21 @@ def _run_python_block(code: str, tmp_path: Path) -> subprocess.CompletedProcess[
     )
 
 
+def _python_block(marker: str) -> str:
+    """README's one ```python block that contains ``marker`` (other sections have their own)."""
+    (block,) = [b for b in _code_blocks("python") if marker in b]
+    return block
+
+
 def test_quickstart_runs(tmp_path):
-    quickstart, subprocesses = _code_blocks("python")
+    quickstart = _python_block('print(f"t={info')
     result = _run_python_block(quickstart, tmp_path)
     assert result.returncode == 0, result.stderr
     assert re.search(r"t=\d+\.\d\ds pose=\(", result.stdout)
 
 
 def test_subprocess_vector_env_example_runs(tmp_path):
-    quickstart, subprocesses = _code_blocks("python")
+    subprocesses = _python_block("SubprocVecEnv")
     assert '"bubblerob_env:BubbleRob-v0"' in subprocesses
     assert 'if __name__ == "__main__":' in subprocesses
     result = _run_python_block(subprocesses, tmp_path)
