@@ -133,6 +133,15 @@ def _record_usage_error(args: argparse.Namespace) -> str | None:
     return None
 
 
+def _policy_error(name: str, error: Exception) -> str:
+    """Why the policy ``name`` did not load, in one line."""
+    if isinstance(error, (ValueError, TypeError, OSError)):
+        return str(error)  # ours: a wrong name, a missing file
+    first = str(error).strip().splitlines()[0] if str(error).strip() else ""
+    # A damaged .zip or .onnx: zipfile's, onnxruntime's own exception types.
+    return f"cannot load the policy file {name}: {type(error).__name__}: {first}"
+
+
 def _record(args: argparse.Namespace) -> int:
     problem = _record_usage_error(args)
     if problem is not None:
@@ -149,18 +158,9 @@ def _record(args: argparse.Namespace) -> int:
     name = f"bubblerob_{Path(args.policy).stem}_seed{args.seed}"
     try:
         policy = _load_policy(args.policy, env, args.seed)
-    except (ValueError, TypeError, OSError) as error:
+    except Exception as error:  # noqa: BLE001 - said in one line by _policy_error
         env.close()
-        print(f"bubblerob record: {error}", file=sys.stderr)
-        return 2
-    except Exception as error:  # noqa: BLE001 - a damaged .zip or .onnx: zipfile, onnxruntime
-        env.close()
-        first = str(error).strip().splitlines()[0] if str(error).strip() else ""
-        print(
-            f"bubblerob record: cannot load the policy file {args.policy}: "
-            f"{type(error).__name__}: {first}",
-            file=sys.stderr,
-        )
+        print(f"bubblerob record: {_policy_error(args.policy, error)}", file=sys.stderr)
         return 2
     try:
         recorder = RosBagRecorder(
