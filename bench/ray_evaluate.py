@@ -4,8 +4,9 @@ Usage: ``python bench/ray_evaluate.py [--episodes 200] [--policy ppo] [--cpus 2]
 
 Runs itself in a new network namespace with only loopback up (``unshare -n``; Ray binds the
 machine's address otherwise). Three times are reported: the serial run (one env and policy, the
-loop of :func:`policies.evaluation.evaluate`), the cluster's start-up (``ray.init`` of a local
-cluster of ``--cpus`` CPUs) and the Ray run once the cluster is up (:func:`evaluate_on_ray`:
+loop of :func:`policies.evaluation.evaluate`), the cluster's start-up (a local cluster of
+``--cpus`` CPUs, started as ``--ray local`` starts it, workers at niceness 0) and the Ray run
+once the cluster is up (:func:`evaluate_on_ray`:
 task submission, the workers' first imports, the episodes); the speed-up is given both without
 and with the start-up. The two take turns on ``--rounds`` blocks of seeds, the order swapped each
 round, so that both see the same background load; their episodes must be equal (the script fails
@@ -45,15 +46,17 @@ def measure(
     Serial and Ray take turns on consecutive blocks of seeds (the order swapped every round), so
     both see the same background load. Every episode of the two must be equal.
     """
-    import gymnasium as gym
-    import ray
+    from contextlib import ExitStack
 
-    from policies.distributed import evaluate_on_ray
+    import gymnasium as gym
+
+    from policies.distributed import LOCAL, evaluate_on_ray, ray_session
     from policies.evaluation import run_episode
     from policies.loading import load_policy
 
     start = time.perf_counter()
-    ray.init(address="local", num_cpus=cpus, include_dashboard=False, logging_level="WARNING")
+    cluster = ExitStack()  # the cluster of `--ray local` (its settings), started here to time it
+    cluster.enter_context(ray_session(LOCAL, cpus))
     startup_s = time.perf_counter() - start
     env = gym.make("BubbleRob-v0", **env_kwargs)  # one env and policy for all, as evaluate does
     loaded = load_policy(policy, env)
@@ -75,7 +78,7 @@ def measure(
                 times[run] += time.perf_counter() - start
                 episodes_of[run] += done
     finally:
-        ray.shutdown()
+        cluster.close()
         env.close()
     if episodes_of["serial"] != episodes_of["ray"]:
         raise SystemExit("the serial and Ray episodes differ")
