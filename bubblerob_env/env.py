@@ -632,7 +632,11 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
                 f"action must be 2 finite numbers (clipped to [-1, 1]), got {action!r}: {error}"
             ) from None
         if raw.shape != (2,):
-            raise ValueError(f"action must have shape (2,), got shape {raw.shape}: {raw!r}")
+            shown = raw.ravel()[:4].tolist()  # a list stays on one line; numpy's repr wraps
+            more = ", ..." if raw.size > 4 else ""
+            raise ValueError(
+                f"action must have shape (2,), got shape {raw.shape}: {str(shown)[:-1]}{more}]"
+            )
         a0, a1 = raw.tolist()
         if not (math.isfinite(a0) and math.isfinite(a1)):
             raise ValueError(

@@ -240,9 +240,6 @@ def test_an_invalid_option_is_refused_in_one_line_naming_an_invalid_one(
     assert not out.exists()
 
 
-@pytest.mark.xfail(
-    strict=True, reason="env.py prints the array's repr, which NumPy wraps (reported to env.py)"
-)
 @pytest.mark.parametrize("action", [np.zeros((2, 2)), np.array([0.0, 0.0, 0.0, -4.955523405e122])])
 def test_a_wrong_shape_action_is_refused_in_one_line(stepping_env, action):
     with pytest.raises(ValueError) as raised:
