@@ -55,6 +55,7 @@ def record_chunk(
     env_kwargs: dict[str, Any],
     recorder_kwargs: dict[str, Any],
     topics: tuple[str, str],
+    env_id: str = "BubbleRob-v0",
 ) -> RecordChunk:
     """Record one episode per seed into the bag at ``path`` (the task's body).
 
@@ -70,7 +71,7 @@ def record_chunk(
     from bubblerob_env.ros.recorder import RosBagRecorder
     from policies.loading import load_policy
 
-    env = gym.make("BubbleRob-v0", **env_kwargs)
+    env = gym.make(env_id, **env_kwargs)
     policy = load_policy(policy_name, env=env, seed=seeds[0])
     recorder = RosBagRecorder(
         env, path, topics=topics_preset(*topics), overwrite=True, **recorder_kwargs
@@ -110,10 +111,9 @@ def _recorder_kwargs(args: Any) -> dict[str, Any]:
 
 
 def _env_kwargs(args: Any) -> dict[str, Any]:
-    kwargs: dict[str, Any] = {"camera": True} if args.camera else {}
-    if args.max_steps is not None:
-        kwargs["max_episode_steps"] = args.max_steps
-    return kwargs
+    from bubblerob_env.ros.cli import record_env_kwargs
+
+    return record_env_kwargs(args)
 
 
 def _check_targets(out: Path, names: list[str], fmt: str, overwrite: bool) -> None:
@@ -167,6 +167,7 @@ def record_on_ray(
                 _env_kwargs(args),
                 recorder_kwargs,
                 topics,
+                args.env,
             )
             for chunk, name in zip(chunks, names, strict=True)
         ]
@@ -180,11 +181,10 @@ def record_on_ray(
 
 
 def _check_policy(args: Any) -> None:
-    import gymnasium as gym
-
+    from bubblerob_env.cli import make_env
     from policies.loading import load_policy
 
-    env = gym.make("BubbleRob-v0", **_env_kwargs(args))
+    env = make_env("record", args.env, _env_kwargs(args))
     try:
         load_policy(args.policy, env=env, seed=args.seed)
     finally:

@@ -15,6 +15,7 @@ import gymnasium as gym
 import numpy as np
 
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
+from bubblerob_env.cli import add_env_arguments, make_env
 from bubblerob_env.mapping import check_resolution
 from bubblerob_env.ros.bags.sinks import COMPRESSIONS, FORMATS
 from bubblerob_env.ros.messages.topics import PRESETS, topics_preset
@@ -36,7 +37,10 @@ def add_subcommands(subparsers: Any) -> None:
         description="Run a policy in BubbleRob-v0 and record every step as a ROS bag "
         "(ROS 2 MCAP or sqlite3, or ROS 1 .bag). Episode k is reset with seed S+k.",
     )
-    record.add_argument("--policy", required=True, help="reactive, laser, random or an SB3 .zip")
+    record.add_argument(
+        "--policy", required=True, help="reactive, laser, random, ppo or an SB3 .zip / .onnx"
+    )
+    add_env_arguments(record)
     record.add_argument("--episodes", type=int, default=1, help="episodes to record (default 1)")
     record.add_argument("--seed", type=int, default=0, help="seed of the first episode")
     record.add_argument("--format", choices=FORMATS, default="mcap", help="bag format")
@@ -142,6 +146,16 @@ def _policy_error(name: str, error: Exception) -> str:
     return f"cannot load the policy file {name}: {type(error).__name__}: {first}"
 
 
+def record_env_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+    """``gym.make`` kwargs of ``record``: ``--env-kwargs``, then ``--camera``, ``--max-steps``."""
+    kwargs: dict[str, Any] = dict(args.env_kwargs)
+    if args.camera:
+        kwargs["camera"] = True
+    if args.max_steps is not None:
+        kwargs["max_episode_steps"] = args.max_steps
+    return kwargs
+
+
 def _record(args: argparse.Namespace) -> int:
     problem = _record_usage_error(args)
     if problem is not None:
@@ -151,10 +165,7 @@ def _record(args: argparse.Namespace) -> int:
         from policies.distributed_record import record_command
 
         return record_command(args)
-    kwargs: dict[str, Any] = {"camera": True} if args.camera else {}
-    if args.max_steps is not None:
-        kwargs["max_episode_steps"] = args.max_steps
-    env = gym.make("BubbleRob-v0", **kwargs)
+    env = make_env("record", args.env, record_env_kwargs(args))
     name = f"bubblerob_{Path(args.policy).stem}_seed{args.seed}"
     try:
         policy = _load_policy(args.policy, env, args.seed)
