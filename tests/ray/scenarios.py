@@ -54,13 +54,18 @@ def killing_one(task_name: str, after_s: float = 0.1) -> Iterator[list[int]]:
     def hunt() -> None:
         seen: dict[int, float] = {}
         while not stop.is_set() and not killed:
-            for proc in psutil.process_iter(["pid", "cmdline"]):
-                if (proc.info["cmdline"] or [""])[0].strip() != title:
+            # Only this cluster's workers (the raylet this process started is their parent):
+            # another Ray run on the machine keeps its own.
+            for proc in psutil.Process().children(recursive=True):
+                try:
+                    if (proc.cmdline() or [""])[0].strip() != title:
+                        continue
+                except psutil.Error:  # ended meanwhile
                     continue
-                first = seen.setdefault(proc.info["pid"], time.monotonic())
+                first = seen.setdefault(proc.pid, time.monotonic())
                 if time.monotonic() - first >= after_s:
-                    os.kill(proc.info["pid"], signal.SIGKILL)
-                    killed.append(proc.info["pid"])
+                    os.kill(proc.pid, signal.SIGKILL)
+                    killed.append(proc.pid)
                     break
             time.sleep(0.02)
 
