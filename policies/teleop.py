@@ -164,6 +164,8 @@ def _run_ros(args: argparse.Namespace) -> int:
     base: Any = env.unwrapped
     limits = (float(base.max_linear_speed), float(base.max_angular_speed))
     env.close()
+    if _no_terminal():
+        return 2
     try:
         link = RosLink(args.ros, args.namespace, *limits)
     except BackendError as error:
@@ -183,7 +185,33 @@ def _run_ros(args: argparse.Namespace) -> int:
     return 0
 
 
+_MAX_SEED = 2**63 - 1  # NumPy seeds are ints >= 0; bags keep them as int64
+
+
+def _usage_error(args: argparse.Namespace) -> str | None:
+    """What is wrong with the command line before anything starts, or None."""
+    if args.seed is not None and not 0 <= args.seed <= _MAX_SEED:
+        return f"--seed must be from 0 to {_MAX_SEED}, got {args.seed}"
+    return None
+
+
+def _no_terminal() -> bool:
+    """Whether there is no terminal to read keys from; says so in one line."""
+    if sys.stdin.isatty() and sys.stdout.isatty():
+        return False
+    print(
+        "bubblerob teleop: needs a terminal to read keys from (run it in one, not with piped "
+        "input or output)",
+        file=sys.stderr,
+    )
+    return True
+
+
 def _run(args: argparse.Namespace) -> int:
+    problem = _usage_error(args)
+    if problem is not None:
+        print(f"bubblerob teleop: {problem}", file=sys.stderr)
+        return 2
     if args.ros is not None:
         return _run_ros(args)
     from bubblerob_env.cli import make_env
@@ -194,6 +222,9 @@ def _run(args: argparse.Namespace) -> int:
     if args.num_obstacles is not None:
         kwargs["num_obstacles"] = tuple(args.num_obstacles)
     env: gym.Env[Any, Any] = make_env("teleop", args.env, args.env_kwargs, **kwargs)
+    if _no_terminal():  # before a bag is started
+        env.close()
+        return 2
     if args.record is not None:
         from bubblerob_env.extras import require_extra
 

@@ -6,6 +6,9 @@ any env, bag, ROS graph or training starts, which these tests also hold (no file
 
 from __future__ import annotations
 
+import subprocess
+import sys
+
 import pytest
 from cli_usage import run
 
@@ -82,3 +85,25 @@ def test_a_damaged_policy_file_is_one_line_naming_it(tmp_path, capsys):
         done = run(record, capsys)  # record's refusals are all exit 2
         assert done.code == 2 and f"cannot load the policy file {path}" in done.one_line()
     assert not (tmp_path / "demo").exists() and not (tmp_path / "bags").exists()
+
+
+@pytest.mark.parametrize(
+    ("argv", "says"),
+    [
+        (["teleop", "--seed", "-1"], "--seed must be from 0"),
+        (["teleop"], "needs a terminal"),
+        (["teleop", "--start-pose", "99", "0", "0"], "start_pose"),
+    ],
+)
+def test_teleop_mistakes_are_one_line_without_a_terminal(argv, says):
+    result = subprocess.run(
+        [sys.executable, "-m", "bubblerob_env.cli", *argv],
+        stdin=subprocess.DEVNULL,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert result.returncode == 2, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and says in lines[0] and lines[0].startswith("bubblerob teleop: ")
