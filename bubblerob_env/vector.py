@@ -440,10 +440,12 @@ class BubbleRobVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
     def close_extras(self, **kwargs: Any) -> None:
         """Close every robot's renderers and the threads."""
         self._closed = True
-        for env in self.envs:
+        # getattr: a constructor that raised (a bad kwarg) leaves neither, and __del__ comes here.
+        for env in getattr(self, "envs", ()):
             env.close()
-        if self._pool is not None:
-            self._pool.shutdown()
+        pool = getattr(self, "_pool", None)
+        if pool is not None:
+            pool.shutdown()
 
 
 def _robot_obs(obs: Any, i: int) -> Any:
