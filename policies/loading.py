@@ -16,6 +16,7 @@ from policies.base import ActionMapper, Policy
 from policies.handwritten import LaserPolicy, RandomPolicy, ReactivePolicy
 from policies.observations import (
     FlatObservationPolicy,
+    ObservationAdapter,
     PolicyEnvMismatchError,
     check_observations,
     dict_view,
@@ -210,7 +211,7 @@ class NormalizedPolicy:
         """Nothing to forget: the model is stateless."""
 
 
-class PooledPolicy:
+class PooledPolicy(ObservationAdapter):
     """A policy trained behind :class:`~bubblerob_env.wrappers.LaserPooling`, fed the full scan.
 
     Min-pools each ``(key, pool)`` of ``pooling`` (in order) of the env's observation, one or a
@@ -218,7 +219,7 @@ class PooledPolicy:
     """
 
     def __init__(self, policy: Policy, pooling: list[tuple[str, int]]) -> None:
-        self.policy = policy
+        super().__init__(policy)
         self.pooling = list(pooling)
 
     def pool(self, observation: dict[str, Any]) -> dict[str, Any]:
@@ -228,19 +229,7 @@ class PooledPolicy:
             pooled[key] = min_pool(np.asarray(pooled[key]), size)
         return pooled
 
-    def predict(
-        self,
-        observation: Any,
-        state: Any = None,
-        episode_start: Any = None,
-        deterministic: bool = True,
-    ) -> Any:
-        """The wrapped policy's ``predict`` on the pooled observation."""
-        return self.policy.predict(self.pool(observation), state, episode_start, deterministic)
-
-    def reset(self) -> None:
-        """Reset the wrapped policy."""
-        self.policy.reset()
+    adapt = pool
 
 
 class _SB3Policy:

@@ -22,6 +22,7 @@ from policies.base import Policy
 
 __all__ = [
     "FlatObservationPolicy",
+    "ObservationAdapter",
     "PolicyEnvMismatchError",
     "check_observations",
     "dict_view",
@@ -83,21 +84,15 @@ def check_observations(
             )
 
 
-class FlatObservationPolicy:
-    """A policy of ``Dict`` observations driving an ``obs_mode="flat"`` env.
+class ObservationAdapter:
+    """A policy fed its observations through :meth:`adapt` (what subclasses define)."""
 
-    Each flat observation (one, or a batch with a leading axis) is cut into the ``Dict`` by the
-    env's ``observation_layout`` (key -> slice of the last axis) before ``policy`` sees it.
-    """
-
-    def __init__(self, policy: Policy, layout: Mapping[str, slice]) -> None:
+    def __init__(self, policy: Policy) -> None:
         self.policy = policy
-        self.layout = dict(layout)
 
-    def unflatten(self, observation: Any) -> dict[str, NDArray[Any]]:
-        """The ``Dict`` observation(s) inside a flat one (or a batch of them)."""
-        flat = np.asarray(observation)
-        return {key: flat[..., part] for key, part in self.layout.items()}
+    def adapt(self, observation: Any) -> Any:
+        """The observation as the wrapped policy takes it."""
+        raise NotImplementedError
 
     def predict(
         self,
@@ -106,9 +101,28 @@ class FlatObservationPolicy:
         episode_start: Any = None,
         deterministic: bool = True,
     ) -> Any:
-        """The wrapped policy's ``predict`` on the observation cut into its ``Dict``."""
-        return self.policy.predict(self.unflatten(observation), state, episode_start, deterministic)
+        """The wrapped policy's ``predict`` on the adapted observation."""
+        return self.policy.predict(self.adapt(observation), state, episode_start, deterministic)
 
     def reset(self) -> None:
         """Reset the wrapped policy."""
         self.policy.reset()
+
+
+class FlatObservationPolicy(ObservationAdapter):
+    """A policy of ``Dict`` observations driving an ``obs_mode="flat"`` env.
+
+    Each flat observation (one, or a batch with a leading axis) is cut into the ``Dict`` by the
+    env's ``observation_layout`` (key -> slice of the last axis) before ``policy`` sees it.
+    """
+
+    def __init__(self, policy: Policy, layout: Mapping[str, slice]) -> None:
+        super().__init__(policy)
+        self.layout = dict(layout)
+
+    def unflatten(self, observation: Any) -> dict[str, NDArray[Any]]:
+        """The ``Dict`` observation(s) inside a flat one (or a batch of them)."""
+        flat = np.asarray(observation)
+        return {key: flat[..., part] for key, part in self.layout.items()}
+
+    adapt = unflatten
