@@ -15,6 +15,7 @@ import curses
 import os
 import sys
 import time
+from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
@@ -164,12 +165,13 @@ def _run_ros(args: argparse.Namespace) -> int:
     base: Any = env.unwrapped
     limits = (float(base.max_linear_speed), float(base.max_angular_speed))
     env.close()
-    if _no_terminal():
-        return 2
     try:
         link = RosLink(args.ros, args.namespace, *limits)
     except BackendError as error:
         print(f"bubblerob teleop: {error}", file=sys.stderr)
+        return 2
+    if _no_terminal():
+        link.close()
         return 2
     try:
         curses.wrapper(run_ros_teleop, link, args.max_seconds)
@@ -222,6 +224,11 @@ def _run(args: argparse.Namespace) -> int:
     if args.num_obstacles is not None:
         kwargs["num_obstacles"] = tuple(args.num_obstacles)
     env: gym.Env[Any, Any] = make_env("teleop", args.env, args.env_kwargs, **kwargs)
+    if args.record is not None and Path(args.record).exists():  # as the recorder refuses it
+        env.close()
+        message = f"bubblerob teleop: bag {args.record} already exists; --record another path"
+        print(message, file=sys.stderr)
+        return 2
     if _no_terminal():  # before a bag is started
         env.close()
         return 2
