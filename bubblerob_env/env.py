@@ -46,7 +46,6 @@ from bubblerob_env.sensors import (
     CameraSpec,
     Laser,
     LaserSpec,
-    ProximitySensor,
     ProximitySpec,
     StaticTransform,
     static_transforms,
@@ -58,7 +57,7 @@ __all__ = ["ACTION_TYPES", "OBS_MODES", "BubbleRobEnv"]
 ACTION_TYPES = ("wheels", "twist")
 OBS_MODES = ("dict", "flat")
 _DEFAULT_CAMERA_SIZE = 64
-_DATA_VIEWS = ("_ctrl", "_sensordata", "_pose", "_warnings", "_core", "_one_robot", "_row")
+_DATA_VIEWS = ("_warnings", "_core", "_one_robot", "_row")
 # MuJoCo resets the state itself after these: the episode cannot go on.
 _DIVERGENCE_WARNINGS = (
     mujoco.mjtWarning.mjWARN_BADQACC,
@@ -428,7 +427,6 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
         self.proximity_spec = ProximitySpec(
             proximity[0], proximity[1], radiation_type=str(proximity[2])
         )
-        self._proximity = ProximitySensor(self.model, self.proximity_spec)
         self.camera_spec = None
         self._camera = None
         if camera_size is not None:
@@ -442,38 +440,17 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
             self._camera = CameraSensor(self.model, self.camera_spec)
 
     def _index_model(self) -> None:
-        """Ids and sensordata addresses the step path reads."""
+        """Ids that resets read."""
         # A list: indexing it with a few contacts' geom ids is faster than numpy fancy indexing.
         self._is_obstacle: list[bool] = (self.model.geom_group == names.OBSTACLE_GROUP).tolist()
         self._base = self.model.body(names.BASE_BODY).id
         self._root_qpos = int(self.model.joint(names.ROOT_JOINT).qposadr[0])
-        sensor_adr = {
-            n: int(self.model.sensor(n).adr[0])
-            for n in (
-                names.VELOCIMETER_SENSOR,
-                names.GYRO_SENSOR,
-                names.LEFT_WHEEL_SPEED_SENSOR,
-                names.RIGHT_WHEEL_SPEED_SENSOR,
-            )
-        }
-        self._velocity_adr = sensor_adr[names.VELOCIMETER_SENSOR]
-        self._gyro_adr = sensor_adr[names.GYRO_SENSOR]
-        self._wheel_adr = [
-            sensor_adr[names.LEFT_WHEEL_SPEED_SENSOR],
-            sensor_adr[names.RIGHT_WHEEL_SPEED_SENSOR],
-        ]
-        # Index arrays for the step path: one gather each instead of slices and concatenations.
-        self._velocity_idx = np.array([self._velocity_adr, self._gyro_adr + 2])
-        self._twist_idx = np.r_[
-            self._velocity_adr : self._velocity_adr + 3, self._gyro_adr : self._gyro_adr + 3
-        ]
-        self._wheel_idx = np.array(self._wheel_adr)
+        # The step's sensordata addresses are the kernel's settings (core/robots.py).
 
     def _build_spaces(self) -> None:
         """Action and observation spaces, from the sensor specs and the speed limits."""
         self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
         self._velocity_limit = np.array([2 * self.max_linear_speed, 2 * self.max_angular_speed])
-        self._velocity_low = -self._velocity_limit
         obs_spaces: dict[str, spaces.Space[Any]] = {}
         if self.laser_spec is not None:
             laser = self.laser_spec
@@ -509,9 +486,6 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
     def _bind_views(self, sensing: bool = True) -> None:
         # Views into self.data and the kernel's addresses of this robot's model and data;
         # rebuilt after unpickling (a copy has new data, and Ray hands back read-only arrays).
-        self._ctrl = self.data.ctrl
-        self._sensordata = self.data.sensordata
-        self._pose = self.data.qpos[self._root_qpos : self._root_qpos + 7]
         self._warnings = self.data.warning.number
         if sensing:  # else the caller attaches the env to a batch's buffers (_attach)
             shared = getattr(self, "_core", None)  # a clone's (see _spawn) shares the tables
