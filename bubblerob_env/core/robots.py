@@ -90,7 +90,6 @@ class RobotBatch:
         n = len(envs)
         spec = first.laser_spec
         nray = spec.num_rays if spec is not None else 0
-        self.analytic = analytic
         self.ptrs = np.zeros((n, PTR_SIZE), dtype=np.uint64)
         self.icfg = _int_settings(first, analytic)
         self.cfg = _float_settings(first)
