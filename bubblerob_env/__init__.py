@@ -1,6 +1,7 @@
 """BubbleRob in MuJoCo as a Gymnasium environment: ``gym.make("BubbleRob-v0")``.
 
-Importing this package registers ``BubbleRob-v0``. Without a display, and unless ``MUJOCO_GL`` is
+Importing this package registers one env id per robot (:data:`bubblerob_env.robots.ROBOTS`):
+``BubbleRob-v0`` and ``PioneerP3DX-v0``. Without a display, and unless ``MUJOCO_GL`` is
 already set, it selects MuJoCo's headless EGL backend, so that the camera and
 ``render_mode="rgb_array"`` work on servers.
 """
@@ -16,6 +17,7 @@ from gymnasium.envs.registration import register  # noqa: E402
 from bubblerob_env.arena import ArenaLayout, Obstacle  # noqa: E402
 from bubblerob_env.env import ACTION_TYPES, OBS_MODES, BubbleRobEnv  # noqa: E402
 from bubblerob_env.kinematics import DiffDrive  # noqa: E402
+from bubblerob_env.robots import ROBOTS, RobotDescription  # noqa: E402
 from bubblerob_env.sensors import (  # noqa: E402
     CameraSpec,
     LaserSpec,
@@ -41,16 +43,21 @@ __all__ = [
     "LaserSpec",
     "Obstacle",
     "ProximitySpec",
+    "RobotDescription",
     "StaticTransform",
     "TopDownRenderer",
     "TopDownView",
 ]
 __version__ = "0.1.0"
 
-register(
-    id="BubbleRob-v0",
-    entry_point="bubblerob_env.env:BubbleRobEnv",
-    # gym.make_vec(..., vectorization_mode="vector_entry_point"): N robots stepped per call.
-    vector_entry_point="bubblerob_env.vector:BubbleRobVectorEnv",
-    max_episode_steps=1000,
-)
+for _robot in ROBOTS.values():
+    register(
+        id=_robot.env_id,
+        entry_point="bubblerob_env.env:BubbleRobEnv",
+        # gym.make_vec(..., vectorization_mode="vector_entry_point"): N robots stepped per call.
+        vector_entry_point="bubblerob_env.vector:BubbleRobVectorEnv",
+        max_episode_steps=1000,
+        # The env's default robot takes no kwarg: BubbleRob-v0's spec (and the env_kwargs its
+        # bags record) stay {}.
+        kwargs={} if _robot.name == "bubblerob" else {"robot": _robot.name},
+    )

@@ -24,6 +24,7 @@ import mujoco
 import numpy as np
 
 from bubblerob_env import names
+from bubblerob_env.robots import ASSETS_DIR, BUBBLEROB
 
 __all__ = [
     "ASSETS_DIR",
@@ -38,12 +39,12 @@ __all__ = [
     "sample_layout",
 ]
 
-ASSETS_DIR = Path(__file__).resolve().parent / "assets"
-DEFAULT_SCENE = ASSETS_DIR / "arena.xml"
+DEFAULT_SCENE = BUBBLEROB.scene_file
+"""BubbleRob's scene (each robot's is its description's ``scene_file``)."""
 
-ROBOT_RADIUS = 0.11
-"""Radius of a circle around base_link that holds the whole robot (wheels' outer rims, 0.108 m,
-rounded up), metres; ``tests/test_assets.py`` checks it against the model's geoms."""
+ROBOT_RADIUS = BUBBLEROB.radius
+"""BubbleRob's bounding radius about base_link (m); each robot's is its description's
+``radius``, which :func:`sample_layout` takes."""
 _CAMERA_NEAR_CLIP = 0.005  # metres
 _PARKED_Z = -10.0  # unused obstacle slots wait below the floor, out of every ray's reach
 _MAX_TRIES = 200
@@ -90,13 +91,19 @@ class ArenaLayout:
 
 
 def build_model(
-    xml_file: str | Path, arena_size: float, max_obstacles: int, memory: int | None = None
+    xml_file: str | Path,
+    arena_size: float,
+    max_obstacles: int,
+    memory: int | None = None,
+    obstacle_height: float | None = None,
 ) -> tuple[mujoco.MjModel, bool]:
     """Compile a scene with ``max_obstacles`` cylinder and box slots added.
 
     If the scene has the default arena's walls they are moved and resized to enclose a square of
     side ``arena_size`` (keeping each wall's thickness and height from the scene), and the floor is
-    resized to match. The slots take their height from the scene's ``obstacle`` class.
+    resized to match. The slots take their height from the scene's ``obstacle`` class, or are
+    ``obstacle_height`` tall (m) when given (the robot's arena: a tall robot's laser must see
+    them).
 
     ``memory`` (bytes) sizes each ``MjData``'s arena (contacts, constraints, stack) unless the
     scene sets ``<size memory=...>`` itself; by default MuJoCo's.
@@ -126,6 +133,8 @@ def build_model(
         floor.size = [outer + 0.5, outer + 0.5, floor.size[2]]
     obstacle_class = spec.find_default(names.OBSTACLE_CLASS)
     half_height = float(obstacle_class.geom.size[2])
+    if obstacle_height is not None:
+        half_height = obstacle_height / 2.0
     for i in range(max_obstacles):
         for prefix, geom_type in (
             (names.CYLINDER_SLOT_PREFIX, mujoco.mjtGeom.mjGEOM_CYLINDER),
@@ -232,6 +241,7 @@ def sample_layout(
     obstacle_size: tuple[float, float],
     start_clearance: float,
     start_pose: tuple[float, float, float] | None = None,
+    robot_radius: float = ROBOT_RADIUS,
 ) -> ArenaLayout:
     """Draw a start pose and obstacles at free positions inside the arena.
 
@@ -239,10 +249,11 @@ def sample_layout(
     robot's bounding circle and the walls and every obstacle. Obstacles keep a gap of at least one
     robot diameter from each other and from the walls, so every obstacle can be driven around. An
     obstacle that finds no room after a bounded number of tries is dropped, so the result depends
-    only on the generator's state and a crowded arena never fails to reset.
+    only on the generator's state and a crowded arena never fails to reset. ``robot_radius``:
+    the robot's bounding circle about base_link (its description's ``radius``).
     """
     half = arena_size / 2.0
-    keep_out = ROBOT_RADIUS + start_clearance
+    keep_out = robot_radius + start_clearance
     if start_pose is None:
         # The start pose is drawn first and obstacles keep clear of it, so a crowded arena drops
         # obstacles instead of failing to find room for the robot.
@@ -252,7 +263,7 @@ def sample_layout(
         x, y = (float(v) for v in rng.uniform(-limit, limit, size=2))
         start_pose = (x, y, float(rng.uniform(-math.pi, math.pi)))
     count = int(rng.integers(num_obstacles[0], num_obstacles[1] + 1))
-    gap = 2 * ROBOT_RADIUS
+    gap = 2 * robot_radius
     obstacles: list[Obstacle] = []
     for _ in range(count):
         kind = "cylinder" if rng.random() < 0.5 else "box"

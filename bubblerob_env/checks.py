@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from bubblerob_env import names
-from bubblerob_env.arena import ROBOT_RADIUS
+from bubblerob_env.robots import BUBBLEROB, RobotDescription
 
 __all__ = [
     "MAX_ARENA_SIZE",
@@ -171,8 +171,8 @@ def check_start_pose(
     return (x, y, yaw)
 
 
-def check_scene(xml_file: object) -> None:
-    """A scene file that MuJoCo parses and that holds the robot (every name the env uses).
+def check_scene(xml_file: object, robot: RobotDescription = BUBBLEROB) -> None:
+    """A scene file that MuJoCo parses and that holds a robot (every name the env uses).
 
     Only parsed here (no compile), so a scene without the robot is one line, not an
     ``AttributeError`` from deep in the model building.
@@ -207,9 +207,10 @@ def check_scene(xml_file: object) -> None:
         missing.append(f"default class {names.OBSTACLE_CLASS!r}")
     if missing:
         raise ValueError(
-            f"xml_file {xml_file} is not a BubbleRob scene: it lacks {', '.join(missing[:6])}"
-            f"{' and more' if len(missing) > 6 else ''} (include bubblerob.xml and common.xml "
-            "from bubblerob_env/assets, as assets/arena.xml does)"
+            f"xml_file {xml_file} is not a {robot.title} scene: it lacks "
+            f"{', '.join(missing[:6])}{' and more' if len(missing) > 6 else ''} (include "
+            f"{robot.robot_file.name} and common.xml from bubblerob_env/assets, as "
+            f"assets/{robot.scene_file.name} does)"
         )
 
 
@@ -242,25 +243,26 @@ def _check_sensors(args: Mapping[str, Any]) -> None:
             check_image_size(label, args[label])
 
 
-def _check_arena(args: Mapping[str, Any]) -> None:
+def _check_arena(args: Mapping[str, Any], robot: RobotDescription) -> None:
     arena_size = check_bounded("arena_size", args["arena_size"], 0.0, MAX_ARENA_SIZE, " m")
     clearance = check_finite("start_clearance", args["start_clearance"])
-    room = arena_size / 2.0 - ROBOT_RADIUS
+    radius = robot.radius
+    room = arena_size / 2.0 - radius
     if room <= 0:
         raise ValueError(
-            f"arena_size must be > {2 * ROBOT_RADIUS:g} m (the robot's diameter), "
+            f"arena_size must be > {2 * radius:g} m (the robot's diameter), "
             f"got {args['arena_size']!r}"
         )
     if not 0.0 <= clearance < room:
         raise ValueError(
-            f"start_clearance must be >= 0 m and leave the robot (radius {ROBOT_RADIUS} m) room "
+            f"start_clearance must be >= 0 m and leave the robot (radius {radius} m) room "
             f"in the arena: < {max(room, 0.0):.3f} m for arena_size {arena_size:g} m, "
             f"got {args['start_clearance']!r}"
         )
     check_range_pair("num_obstacles", args["num_obstacles"], 0, MAX_OBSTACLES, ints=True)
     check_range_pair("obstacle_size", args["obstacle_size"], 1e-3, math.inf, ints=False)
     if args["xml_file"] is not None:
-        check_scene(args["xml_file"])
+        check_scene(args["xml_file"], robot)
 
 
 def check_env_arguments(
@@ -268,8 +270,12 @@ def check_env_arguments(
     action_types: Sequence[str],
     radiation_types: Sequence[str],
     render_modes: Sequence[str],
+    robot: RobotDescription = BUBBLEROB,
 ) -> None:
     """Every ``BubbleRobEnv`` keyword argument, by name: the first bad one raises ``ValueError``.
+
+    ``args`` holds the robot's values where the caller left ``None`` (but ``xml_file``, whose
+    ``None`` is the robot's own scene); ``robot`` is the robot they are for.
 
     The sensor specs (``LaserSpec``, ``ProximitySpec``, ``CameraSpec``) check how their fields
     relate when the env builds them; ``start_pose`` is checked by :func:`check_start_pose`.
@@ -301,9 +307,9 @@ def check_env_arguments(
     ):
         check_bounded(label, args[label], -MAX_WEIGHT, MAX_WEIGHT)
     check_bool("terminate_on_collision", args["terminate_on_collision"])
-    if not check_finite("clearance_distance", args["clearance_distance"]) > ROBOT_RADIUS:
+    if not check_finite("clearance_distance", args["clearance_distance"]) > robot.radius:
         raise ValueError(
-            f"clearance_distance must be > the robot radius {ROBOT_RADIUS} m, "
+            f"clearance_distance must be > the robot radius {robot.radius} m, "
             f"got {args['clearance_distance']!r}"
         )
-    _check_arena(args)
+    _check_arena(args, robot)

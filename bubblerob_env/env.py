@@ -17,8 +17,6 @@ from numpy.typing import NDArray
 
 from bubblerob_env import names
 from bubblerob_env.arena import (
-    DEFAULT_SCENE,
-    ROBOT_RADIUS,
     ArenaLayout,
     ObstacleSlots,
     build_model,
@@ -40,6 +38,7 @@ from bubblerob_env.infos import robot_info
 from bubblerob_env.kinematics import DiffDrive
 from bubblerob_env.odometry import Odometry, draw_slip
 from bubblerob_env.rendering import HumanViewer, OverheadRenderer, render_modes_here
+from bubblerob_env.robots import RobotDescription, robot_description
 from bubblerob_env.sensors import (
     RADIATION_TYPES,
     CameraSensor,
@@ -186,71 +185,79 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
         action_type: str = "wheels",
         control_timestep: float = 0.05,
         physics_substeps: int = 4,
-        max_wheel_speed: float = 10.0,
+        max_wheel_speed: float | None = None,
         max_linear_speed: float | None = None,
         max_angular_speed: float | None = None,
         odometry_noise: float = 0.0,
-        laser_num_rays: int = 360,
-        laser_fov: float = 2.0 * math.pi,
-        laser_range_min: float = 0.05,
-        laser_range_max: float = 5.0,
+        laser_num_rays: int | None = None,
+        laser_fov: float | None = None,
+        laser_range_min: float | None = None,
+        laser_range_max: float | None = None,
         laser_noise_std: float = 0.0,
         laser_backend: str = "auto",
-        proximity_range_max: float = 0.6,
-        proximity_trigger_distance: float = 0.3,
+        proximity_range_max: float | None = None,
+        proximity_trigger_distance: float | None = None,
         proximity_radiation_type: str = "ULTRASOUND",
         camera: bool = False,
         camera_width: int | None = None,
         camera_height: int | None = None,
         camera_shadows: bool = False,
-        arena_size: float = 4.0,
-        num_obstacles: tuple[int, int] = (4, 10),
-        obstacle_size: tuple[float, float] = (0.08, 0.25),
+        arena_size: float | None = None,
+        num_obstacles: tuple[int, int] | None = None,
+        obstacle_size: tuple[float, float] | None = None,
         obstacle_colours: bool = False,
-        start_clearance: float = 0.25,
+        start_clearance: float | None = None,
         start_pose: tuple[float, float, float] | None = None,
         forward_reward_weight: float = 1.0,
         spin_cost_weight: float = 0.2,
         clearance_cost_weight: float = 0.5,
-        clearance_distance: float = 0.35,
+        clearance_distance: float | None = None,
         collision_penalty: float = 100.0,
         terminate_on_collision: bool = True,
         obs_mode: str = "dict",
         render_mode: str | None = None,
         render_width: int = 480,
         render_height: int = 480,
+        *,
+        robot: str = "bubblerob",
         **unknown_kwargs: Any,
     ) -> None:
         """Build the env.
 
+        Every argument whose default is ``None`` takes the robot's value from its description
+        (:mod:`bubblerob_env.robots`); the values in brackets below are BubbleRob's.
+
         Args:
-            xml_file: Scene MJCF (must include the robot, see ``assets/``); default ``arena.xml``.
+            xml_file: Scene MJCF (must include the robot, see ``assets/``); default the robot's
+                (``arena.xml``).
             action_type: ``"wheels"`` or ``"twist"`` (see Action Space).
             control_timestep: Seconds of simulated time per ``step`` (20 Hz by default).
             physics_substeps: MuJoCo steps per control step; the physics timestep is their ratio.
             max_wheel_speed: Wheel speed (rad/s) that an action of 1 means in wheels mode; also
-                the motors' limit in twist mode.
+                the motors' limit in twist mode (10).
             max_linear_speed: m/s meant by a linear action of 1; default: the wheels' limit.
-            max_angular_speed: rad/s meant by an angular action of 1; default: spinning in place
-                with both wheels at their limit.
+            max_angular_speed: rad/s meant by an angular action of 1; default: the robot's top
+                yaw rate, or (BubbleRob) spinning in place with both wheels at their limit.
             odometry_noise: Relative wheel-slip error of the odometry per control step, from 0
                 to 1: each wheel's travel in a step is multiplied by ``1 + odometry_noise *
                 N(0, 1)``, two draws per step from the episode's generator, and the odometry
                 drifts. 0 (the default) draws nothing: the odometry is the truth. ``info`` has
                 the odometry (``odom_x``, ``odom_y``, ``odom_yaw``) beside the truth (``x``,
                 ``y``, ``yaw``); see :mod:`bubblerob_env.odometry`.
-            laser_num_rays: Rays per scan; 0 removes the laser from the observation.
-            laser_fov: Field of view in radians: 2*pi (360 degrees) or less, centred on +x.
-            laser_range_min: Minimum valid range (m), reported to ROS.
-            laser_range_max: Maximum range (m); no return reads this value.
+            laser_num_rays: Rays per scan; 0 removes the laser from the observation (360).
+            laser_fov: Field of view in radians: 2*pi (360 degrees) or less, centred on +x
+                (2*pi).
+            laser_range_min: Minimum valid range (m), reported to ROS (0.05).
+            laser_range_max: Maximum range (m); no return reads this value (5).
             laser_noise_std: Standard deviation (m) of Gaussian noise on each hit.
             laser_backend: ``"auto"``: the exact analytic caster where every laser-visible geom
                 is an upright box or cylinder that never tilts (the arena's walls and
                 obstacles), else MuJoCo's ``mj_multiRay``; ``"analytic"``: the caster or a
                 ``ValueError`` saying why not; ``"mujoco"``: always ``mj_multiRay``. Both give
                 the same readings; ``laser_spec.caster`` says which one runs.
-            proximity_range_max: Range of the nose sensor (m).
-            proximity_trigger_distance: Distance under which the nose sensor "triggers" (m).
+            proximity_range_max: Range of the nose sensor (m) (0.6).
+            proximity_trigger_distance: Distance under which the nose sensor "triggers" (m)
+                (0.3).
             proximity_radiation_type: ``"ULTRASOUND"`` (the seed's ``FrontUS``) or
                 ``"INFRARED"``: what ROS ``sensor_msgs/Range`` messages report; the sensing is the
                 same ray either way.
@@ -258,17 +265,17 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
             camera_width: Image width in pixels; giving a size enables the camera.
             camera_height: Image height in pixels; giving a size enables the camera.
             camera_shadows: Render shadows and reflections (about 15x slower on a CPU).
-            arena_size: Inside side length of the square arena (m).
-            num_obstacles: Inclusive range of the number of obstacles per episode.
-            obstacle_size: Range of obstacle radius / half side (m).
+            arena_size: Inside side length of the square arena (m) (4).
+            num_obstacles: Inclusive range of the number of obstacles per episode ((4, 10)).
+            obstacle_size: Range of obstacle radius / half side (m) ((0.08, 0.25)).
             obstacle_colours: Paint each obstacle a colour drawn from the palette (see Starting
                 State); ``False`` keeps the scene's obstacle material.
-            start_clearance: Minimum free space around the robot at the start (m).
+            start_clearance: Minimum free space around the robot at the start (m) (0.25).
             start_pose: Fixed start ``(x, y, yaw)``; default: random each reset.
             forward_reward_weight: Weight of the forward-speed reward.
             spin_cost_weight: Weight of the yaw-rate cost.
             clearance_cost_weight: Weight of the cost of driving close to obstacles.
-            clearance_distance: Range (m) under which that cost starts.
+            clearance_distance: Range (m) under which that cost starts (0.35).
             collision_penalty: Cost of touching a wall or an obstacle.
             terminate_on_collision: End the episode on collision.
             obs_mode: ``"dict"`` (the ``Dict`` above) or ``"flat"``: one float32 ``Box`` of
@@ -280,6 +287,8 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
                 ``"human"`` (a window; needs a display).
             render_width: Width of ``rgb_array`` frames.
             render_height: Height of ``rgb_array`` frames.
+            robot: Which robot (a name in :data:`bubblerob_env.robots.ROBOTS`): ``"bubblerob"``
+                or ``"pioneer_p3dx"`` (what ``PioneerP3DX-v0`` passes).
             **unknown_kwargs: Rejected with a ``TypeError`` listing the valid names.
         """
         if unknown_kwargs:
@@ -289,12 +298,29 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
                 if p not in ("self", "unknown_kwargs")
             ]
             raise unexpected_kwargs_error("BubbleRobEnv.__init__", list(unknown_kwargs), valid)
-        arguments = {
-            name: value
-            for name, value in locals().items()
-            if name not in ("self", "unknown_kwargs")
-        }
-        check_env_arguments(arguments, ACTION_TYPES, RADIATION_TYPES, self.metadata["render_modes"])
+        self.robot: RobotDescription = robot_description(robot)
+        """The robot's description (sizes, sensors, frames, limits, arena)."""
+        arguments = self.robot.fill_defaults(
+            {
+                name: value
+                for name, value in locals().items()
+                if name not in ("self", "unknown_kwargs", "robot")
+            }
+        )
+        check_env_arguments(
+            arguments, ACTION_TYPES, RADIATION_TYPES, self.metadata["render_modes"], self.robot
+        )
+        max_wheel_speed, max_angular_speed = (
+            arguments["max_wheel_speed"],
+            arguments["max_angular_speed"],
+        )
+        laser = tuple(
+            arguments[f"laser_{key}"] for key in ("num_rays", "fov", "range_min", "range_max")
+        )
+        proximity = (arguments["proximity_range_max"], arguments["proximity_trigger_distance"])
+        arena_size, num_obstacles = arguments["arena_size"], arguments["num_obstacles"]
+        obstacle_size, start_clearance = arguments["obstacle_size"], arguments["start_clearance"]
+        clearance_distance = arguments["clearance_distance"]
         check_choice("laser_backend", laser_backend, LASER_BACKENDS)
         check_choice("obs_mode", obs_mode, OBS_MODES)
         self.odometry_noise = check_bounded("odometry_noise", odometry_noise, 0.0, 1.0)
@@ -312,7 +338,7 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
         self.start_clearance = float(start_clearance)
         self.start_pose: tuple[float, float, float] | None = None
         if start_pose is not None:
-            self.start_pose = check_start_pose(start_pose, self.arena_size, ROBOT_RADIUS)
+            self.start_pose = check_start_pose(start_pose, self.arena_size, self.robot.radius)
         self.forward_reward_weight = forward_reward_weight
         self.spin_cost_weight = spin_cost_weight
         self.clearance_cost_weight = clearance_cost_weight
@@ -320,9 +346,13 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
         self.collision_penalty = collision_penalty
         self.terminate_on_collision = terminate_on_collision
 
-        self.xml_file = Path(xml_file) if xml_file is not None else DEFAULT_SCENE
+        self.xml_file = Path(xml_file) if xml_file is not None else self.robot.scene_file
         self.model, _ = build_model(
-            self.xml_file, self.arena_size, self.num_obstacles[1], self._ARENA_MEMORY
+            self.xml_file,
+            self.arena_size,
+            self.num_obstacles[1],
+            self._ARENA_MEMORY,
+            self.robot.arena.obstacle_height,
         )
         self.model.opt.timestep = control_timestep / physics_substeps
         self._size_framebuffer(
@@ -348,8 +378,8 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
         check_positive("max_angular_speed", self.max_angular_speed)
 
         self._build_sensors(
-            (laser_num_rays, laser_fov, laser_range_min, laser_range_max, laser_noise_std),
-            (proximity_range_max, proximity_trigger_distance, proximity_radiation_type),
+            (*laser, laser_noise_std),
+            (*proximity, proximity_radiation_type),
             (camera_width, camera_height) if camera or camera_width or camera_height else None,
             camera_shadows,
             control_timestep,
@@ -360,7 +390,9 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
                 "the camera, or drop camera/camera_width/camera_height"
             )
         analytic = self._choose_caster(laser_backend)
-        self.static_transforms: tuple[StaticTransform, ...] = static_transforms(self.model)
+        self.static_transforms: tuple[StaticTransform, ...] = static_transforms(
+            self.model, self.robot.frames
+        )
         self.specs = EnvSpecs(
             self.laser_spec,
             self.proximity_spec,
@@ -531,6 +563,7 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
             self.obstacle_size,
             self.start_clearance,
             self.start_pose,
+            self.robot.radius,
         )
         if self.obstacle_colours:
             self.layout = colour_obstacles(self.np_random, self.layout)

@@ -202,8 +202,15 @@ def _rotation_to_quat_xyzw(matrix: NDArray[np.float64]) -> tuple[float, float, f
     return (x, y, z, w)
 
 
-def static_transforms(model: mujoco.MjModel) -> tuple[StaticTransform, ...]:
-    """Fixed transforms from ``base_link`` to every sensor frame, read from the compiled model.
+_SENSOR_FRAMES = (names.LASER_SITE, names.PROXIMITY_SITE, names.CAMERA_SITE)
+
+
+def static_transforms(
+    model: mujoco.MjModel, frames: tuple[str, ...] = _SENSOR_FRAMES
+) -> tuple[StaticTransform, ...]:
+    """Fixed transforms from ``base_link`` to each sensor frame (a site), from the compiled model.
+
+    ``frames``: the robot description's sensor frames; the camera's must be among them.
 
     Includes ``camera_link -> camera_optical_frame`` (optical convention: z forward, x right, y
     down), derived from the MuJoCo camera, which looks along its -z with +y up.
@@ -221,7 +228,7 @@ def static_transforms(model: mujoco.MjModel) -> tuple[StaticTransform, ...]:
         return base_rot.T @ (pos - base_pos), base_rot.T @ rot
 
     transforms = []
-    for site in (names.LASER_SITE, names.PROXIMITY_SITE, names.CAMERA_SITE):
+    for site in frames:
         sid = model.site(site).id
         pos, rot = relative(data.site_xpos[sid], data.site_xmat[sid].reshape(3, 3))
         transforms.append(

@@ -7,15 +7,27 @@ import numpy as np
 import pytest
 
 from bubblerob_env import names
-from bubblerob_env.arena import ASSETS_DIR, ROBOT_RADIUS, build_model
+from bubblerob_env.arena import ASSETS_DIR, build_model
+from bubblerob_env.robots import ROBOTS, RobotDescription
 
-SCENES = sorted([ASSETS_DIR / "arena.xml", *(ASSETS_DIR / "scenes").glob("*.xml")])
-ROBOT_FILE = ASSETS_DIR / "bubblerob.xml"
-PIECES = ("bubblerob.xml", "common.xml")
+ROBOT_LIST = list(ROBOTS.values())
+# Each scene with the robot it includes: the robots' own, and the test scenes (BubbleRob's).
+SCENES = sorted(
+    [
+        *((robot.scene_file, robot) for robot in ROBOT_LIST),
+        *((path, ROBOTS["bubblerob"]) for path in (ASSETS_DIR / "scenes").glob("*.xml")),
+    ],
+    key=lambda pair: pair[0],
+)
 
 
-def test_robot_file_compiles_alone_with_its_motors_sensors_and_names():
-    model = mujoco.MjModel.from_xml_path(str(ROBOT_FILE))
+def _scene_id(pair: tuple[object, RobotDescription]) -> str:
+    return getattr(pair[0], "name", str(pair[0]))
+
+
+@pytest.mark.parametrize("robot", ROBOT_LIST, ids=lambda r: r.name)
+def test_robot_file_compiles_alone_with_its_motors_sensors_and_names(robot):
+    model = mujoco.MjModel.from_xml_path(str(robot.robot_file))
     for kind, required in names.REQUIRED_NAMES.items():
         for name in required:
             if name != names.FLOOR_GEOM:  # the floor is the scene's
@@ -23,10 +35,12 @@ def test_robot_file_compiles_alone_with_its_motors_sensors_and_names():
     assert model.nu == 2 and model.opt.integrator == mujoco.mjtIntegrator.mjINT_IMPLICITFAST
 
 
-def test_robot_radius_bounds_every_robot_geom_seen_from_above():
+@pytest.mark.parametrize("robot", ROBOT_LIST, ids=lambda r: r.name)
+def test_robot_radius_bounds_every_robot_geom_seen_from_above(robot):
     # Each geom's horizontal reach from base_link, from the compiled model: sphere and cylinder
-    # extents in the plane (cylinders' axes are along y for wheels, z for the laser housing).
-    model = mujoco.MjModel.from_xml_path(str(ROBOT_FILE))
+    # extents in the plane (cylinders' axes are along y for wheels, z for the laser housing),
+    # an upright box's four corners.
+    model = mujoco.MjModel.from_xml_path(str(robot.robot_file))
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     base = model.body(names.BASE_BODY).id
@@ -36,6 +50,11 @@ def test_robot_radius_bounds_every_robot_geom_seen_from_above():
         size = model.geom_size[g]
         if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_SPHERE:
             corners = [centre[:2] + size[0] * np.array(d) for d in ((1, 0), (-1, 0), (0, 1))]
+        elif model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX:
+            axes = data.geom_xmat[g].reshape(3, 3)[:2, :2]
+            corners = [
+                centre[:2] + axes @ (size[:2] * np.array((a, b))) for a in (-1, 1) for b in (-1, 1)
+            ]
         else:  # a cylinder: radius size[0] around its axis, half-length size[1] along it
             axis = data.geom_xmat[g].reshape(3, 3)[:, 2][:2]
             side = np.array([-axis[1], axis[0]])
@@ -45,26 +64,28 @@ def test_robot_radius_bounds_every_robot_geom_seen_from_above():
                 for b in (-1, 1)
             ]
         reach = max(reach, *(float(np.hypot(*c)) for c in corners))
-    assert 0.10 < reach <= ROBOT_RADIUS
+    # Tight: the radius is the reach rounded up by at most a centimetre.
+    assert robot.radius - 0.01 < reach <= robot.radius
 
 
-@pytest.mark.parametrize("scene", SCENES, ids=lambda p: p.name)
-def test_scene_compiles_with_every_required_name(scene):
+@pytest.mark.parametrize(("scene", "robot"), SCENES, ids=[_scene_id(p) for p in SCENES])
+def test_scene_compiles_with_every_required_name(scene, robot):
     model = mujoco.MjModel.from_xml_path(str(scene))
     for kind, required in names.REQUIRED_NAMES.items():
         for name in required:
             assert getattr(model, kind)(name).name == name
 
 
-@pytest.mark.parametrize("scene", SCENES, ids=lambda p: p.name)
-def test_scene_is_built_from_the_shared_pieces(scene):
+@pytest.mark.parametrize(("scene", "robot"), SCENES, ids=[_scene_id(p) for p in SCENES])
+def test_scene_is_built_from_the_shared_pieces(scene, robot):
     text = scene.read_text()
-    for piece in PIECES:
+    for piece in (robot.robot_file.name, "common.xml"):
         assert piece in text, f"{scene.name} does not <include> {piece}"
 
 
 def test_every_asset_file_is_used_by_a_scene():
-    used = {piece for piece in PIECES} | {s.name for s in SCENES}
+    pieces = {"common.xml"} | {robot.robot_file.name for robot in ROBOT_LIST}
+    used = pieces | {s.name for s, _ in SCENES}
     on_disk = {p.name for p in ASSETS_DIR.rglob("*.xml")}
     assert on_disk == used
 
@@ -80,8 +101,9 @@ def test_built_model_has_obstacle_slots_and_arena_walls():
     assert north.pos[1] - north.size[1] == pytest.approx(3.0)
 
 
-def test_robot_geoms_are_hidden_from_the_laser_and_collide_with_obstacles():
-    model = mujoco.MjModel.from_xml_path(str(ASSETS_DIR / "arena.xml"))
+@pytest.mark.parametrize("robot", ROBOT_LIST, ids=lambda r: r.name)
+def test_robot_geoms_are_hidden_from_the_laser_and_collide_with_obstacles(robot):
+    model = mujoco.MjModel.from_xml_path(str(robot.scene_file))
     base = model.body(names.BASE_BODY).id
     robot = [g for g in range(model.ngeom) if model.body_rootid[model.geom_bodyid[g]] == base]
     assert robot, "the robot has no geoms"
@@ -93,8 +115,9 @@ def test_robot_geoms_are_hidden_from_the_laser_and_collide_with_obstacles():
     assert model.geom(names.FLOOR_GEOM).group == names.FLOOR_GROUP
 
 
-def test_caster_is_frictionless_with_priority_over_the_floor():
-    model = mujoco.MjModel.from_xml_path(str(ASSETS_DIR / "arena.xml"))
+@pytest.mark.parametrize("robot", ROBOT_LIST, ids=lambda r: r.name)
+def test_caster_is_frictionless_with_priority_over_the_floor(robot):
+    model = mujoco.MjModel.from_xml_path(str(robot.scene_file))
     caster = model.geom("caster")
     assert caster.condim == 1
     assert caster.priority > model.geom(names.FLOOR_GEOM).priority

@@ -16,7 +16,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bubblerob_env import names
-from bubblerob_env.arena import ROBOT_RADIUS
 from bubblerob_env.core.kernel import (
     CFG,
     CFG_SIZE,
@@ -215,7 +214,7 @@ def _float_settings(env: BubbleRobEnv) -> NDArray[np.float64]:
     cfg[CFG.SPIN_WEIGHT] = env.spin_cost_weight
     cfg[CFG.CLEARANCE_WEIGHT] = env.clearance_cost_weight
     cfg[CFG.CLEARANCE_DISTANCE] = env.clearance_distance
-    cfg[CFG.HULL] = ROBOT_RADIUS
+    cfg[CFG.HULL] = env.robot.radius
     cfg[CFG.COLLISION_PENALTY] = env.collision_penalty
     if not math.isfinite(float(cfg.sum())):
         raise ValueError("the env's speeds and reward weights must be finite numbers")
