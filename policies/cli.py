@@ -8,7 +8,14 @@ from pathlib import Path
 from typing import Any
 
 from bubblerob_env.cli import add_env_arguments
-from policies.evaluation import DEFAULT_EVAL_SEED, evaluate, format_table, record_video
+from policies.evaluation import (
+    DEFAULT_EVAL_SEED,
+    EvalResult,
+    evaluate,
+    format_table,
+    record_video,
+)
+from policies.protocol import SPLITS, TEST, VALIDATION
 
 __all__ = ["add_subcommands"]
 
@@ -29,9 +36,26 @@ def add_subcommands(subparsers: Any) -> None:
         "repeat to compare",
     )
     parser.add_argument("--episodes", type=int, default=100, help="episodes per policy")
-    parser.add_argument("--seed", type=int, default=DEFAULT_EVAL_SEED, help="first episode seed")
+    parser.add_argument(
+        "--seed",
+        type=int,
+        help=f"first episode seed (default: {DEFAULT_EVAL_SEED}, or the --split's first seed)",
+    )
+    parser.add_argument(
+        "--split",
+        choices=["validation", "test"],
+        help="keep every episode seed in this range of policies/protocol.py: validation "
+        f"({VALIDATION.start}-{VALIDATION.stop - 1}, for every choice) or test "
+        f"({TEST.start}-{TEST.stop - 1}, for reported numbers only)",
+    )
     add_env_arguments(parser)
     parser.add_argument("--markdown", action="store_true", help="print a Markdown table")
+    parser.add_argument(
+        "--per-episode",
+        type=Path,
+        metavar="JSON",
+        help="also write each episode's seed, outcome, length, return and speed to this file",
+    )
     parser.add_argument(
         "--video", type=Path, help="also write the first episode (seed SEED) as .mp4 or .gif"
     )
@@ -92,18 +116,43 @@ def _check_policies(command: str, names: list[str], env_id: str, env_kwargs: Any
 def _usage(command: str, args: argparse.Namespace) -> None:
     """Exit 2 with one line if ``--seed``, ``--episodes`` or ``--video``'s folder is unusable."""
     problem = None
+    split = SPLITS.get(getattr(args, "split", None) or "")
+    if args.seed is None:
+        args.seed = DEFAULT_EVAL_SEED if split is None else split.start
     if args.episodes < 1:
         problem = f"--episodes must be >= 1, got {args.episodes}"
     elif not 0 <= args.seed <= 2**32 - 1 - args.episodes:
         problem = f"--seed must be from 0 to {2**32 - 1 - args.episodes}, got {args.seed}"
+    elif (
+        split is not None
+        and args.seed + args.episodes > split.stop
+        or (split is not None and args.seed < split.start)
+    ):
+        problem = (
+            f"--split {split.name}: seeds {args.seed}-{args.seed + args.episodes - 1} are not all "
+            f"in {split.start}-{split.stop - 1}"
+        )
     elif getattr(args, "video", None) is not None:
         try:
             Path(args.video).resolve().parent.mkdir(parents=True, exist_ok=True)
         except OSError as error:
             problem = f"--video {args.video}: cannot create its folder ({error.strerror or error})"
+    if problem is None and getattr(args, "per_episode", None) is not None:
+        try:
+            Path(args.per_episode).resolve().parent.mkdir(parents=True, exist_ok=True)
+        except OSError as error:
+            problem = f"--per-episode {args.per_episode}: cannot create its folder ({error})"
     if problem is not None:
         print(f"bubblerob {command}: {problem}", file=sys.stderr)
         raise SystemExit(2)
+
+
+def _write_per_episode(path: Path, results: list[EvalResult]) -> None:
+    import json
+
+    records = {r.policy: list(r.per_episode) for r in results}
+    path.write_text(json.dumps(records, indent=1) + "\n")
+    print(f"wrote {path}: {sum(len(v) for v in records.values())} episodes")
 
 
 def _run_demo(args: argparse.Namespace) -> int:
@@ -144,6 +193,8 @@ def _run_evaluate(args: argparse.Namespace) -> int:
             for name in args.policy
         ]
     print(format_table(results, markdown=args.markdown))
+    if args.per_episode is not None:
+        _write_per_episode(args.per_episode, results)
     if args.video is not None:
         frames = record_video(
             video_policy, args.video, args.seed, args.env, args.env_kwargs, progress=True

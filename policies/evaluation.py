@@ -15,6 +15,7 @@ import numpy as np
 from bubblerob_env import BubbleRobEnv
 from bubblerob_env.wrappers import TopDownView
 from policies.loading import load_policy
+from policies.protocol import wilson_interval
 
 __all__ = [
     "DEFAULT_EVAL_SEED",
@@ -46,6 +47,14 @@ class EvalResult:
     mean_speed_fraction: float
     mean_length: float
     mean_return: float
+    per_episode: tuple[dict[str, Any], ...] = ()
+    """One record per episode, in seed order: ``seed``, ``succeeded``, ``collided``, ``length``,
+    ``return`` and ``speed`` (its mean speed fraction), for ``evaluate --per-episode``."""
+
+    @property
+    def success_interval(self) -> tuple[float, float]:
+        """The Wilson 95% interval of the success rate."""
+        return wilson_interval(round(self.success_rate * self.episodes), self.episodes)
 
 
 @dataclass(frozen=True)
@@ -57,6 +66,7 @@ class EpisodeStats:
     collided: bool
     succeeded: bool
     speed_fractions: tuple[float, ...]
+    seed: int = -1
 
 
 class FrameSink(Protocol):
@@ -112,6 +122,7 @@ def run_episode(
         collided=bool(info["collision"]),
         succeeded=bool(info["is_success"]),
         speed_fractions=tuple(speeds),
+        seed=seed,
     )
 
 
@@ -126,6 +137,17 @@ def summarize(policy_name: str, episodes: Sequence[EpisodeStats]) -> EvalResult:
         mean_speed_fraction=float(np.mean([s for e in episodes for s in e.speed_fractions])),
         mean_length=float(np.mean([e.length for e in episodes])),
         mean_return=float(np.mean([e.total_reward for e in episodes])),
+        per_episode=tuple(
+            {
+                "seed": e.seed,
+                "succeeded": e.succeeded,
+                "collided": e.collided,
+                "length": e.length,
+                "return": e.total_reward,
+                "speed": float(np.mean(e.speed_fractions)),
+            }
+            for e in episodes
+        ),
     )
 
 
@@ -155,15 +177,19 @@ def evaluate(
 
 
 def format_table(results: Sequence[EvalResult], markdown: bool = False) -> str:
-    """One table, a row per policy."""
-    header = ["policy", "episodes", "success", "collision", "speed/max", "length", "return"]
+    """One table, a row per policy; success with its Wilson 95% interval."""
+    header = [
+        "policy", "episodes", "success", "95%CI", "collision", "speed/max", "length",
+        "return",
+    ]  # fmt: skip
     rows = [
         [
             r.policy,
             str(r.episodes),
-            f"{r.success_rate:.0%}",
-            f"{r.collision_rate:.0%}",
-            f"{r.mean_speed_fraction:.0%}",
+            f"{r.success_rate:.1%}",
+            "{:.1%}-{:.1%}".format(*r.success_interval),
+            f"{r.collision_rate:.1%}",
+            f"{r.mean_speed_fraction:.1%}",
             f"{r.mean_length:.0f}",
             f"{r.mean_return:.1f}",
         ]

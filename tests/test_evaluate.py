@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from policies.evaluation import EpisodeStats, format_table, summarize
+from policies.protocol import wilson_interval
 
 
 def test_summary_counts_successes_collisions_and_speed():
@@ -26,12 +27,33 @@ def test_summary_counts_successes_collisions_and_speed():
         "policy",
         "episodes",
         "success",
+        "95%CI",
         "collision",
         "speed/max",
         "length",
         "return",
     ]
-    assert table.splitlines()[1].split()[:5] == ["p", "2", "50%", "50%", "64%"]
+    assert table.splitlines()[1].split()[:6] == ["p", "2", "50.0%", "9.5%-90.5%", "50.0%", "64.3%"]
+
+
+@pytest.mark.parametrize(("successes", "trials"), [(0, 10), (3, 10), (10, 10), (981, 1000)])
+def test_the_success_interval_is_wilsons(successes, trials):
+    # Wilson's interval is the set of p with |p_hat - p| <= z * sqrt(p (1 - p) / n): its ends are
+    # the roots of that quadratic, found here by bisection, not by the closed form under test.
+    p_hat, z = successes / trials, 1.96
+
+    def inside(p: float) -> bool:
+        return abs(p_hat - p) <= z * np.sqrt(p * (1 - p) / trials)
+
+    def edge(outside: float, inner: float) -> float:
+        for _ in range(100):
+            middle = (outside + inner) / 2
+            outside, inner = (outside, middle) if inside(middle) else (middle, inner)
+        return inner
+
+    low = 0.0 if inside(0.0) else edge(0.0, p_hat if inside(p_hat) else 0.5)
+    high = 1.0 if inside(1.0) else edge(1.0, p_hat if inside(p_hat) else 0.5)
+    assert wilson_interval(successes, trials) == pytest.approx((low, high), abs=1e-9)
 
 
 def test_evaluate_command_compares_policies_and_writes_a_video(tmp_path):

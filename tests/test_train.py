@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 import gymnasium as gym
+import numpy as np
 import pytest
 import yaml
 
@@ -300,3 +301,55 @@ def test_camera_only_training_evaluates_like_it_trains(tmp_path):
     with (tmp_path / "model_vecnormalize.pkl").open("rb") as handle:
         normalizer = pickle.load(handle)
     assert sorted(normalizer.norm_obs_keys) == ["proximity", "velocity"]
+
+
+def test_every_evaluation_runs_the_same_validation_seeds():
+    # The eval batch is reset to validation seeds 1000, 1001 before each evaluation: its first
+    # observations equal gym.make's from those seeds, at the first evaluation and the second.
+    import gymnasium as gym
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.logger import configure
+    from stable_baselines3.common.vec_env import VecEnvWrapper
+
+    from policies.protocol import VALIDATION
+    from train.validation import validation_evaluation
+
+    class FirstObservations(VecEnvWrapper):
+        def __init__(self, venv):
+            super().__init__(venv)
+            self.resets = []
+
+        def reset(self):
+            obs = self.venv.reset()
+            self.resets.append(obs["laser"].copy())
+            return obs
+
+        def step_wait(self):
+            return self.venv.step_wait()
+
+    kwargs = {"max_episode_steps": 5}
+    eval_env = FirstObservations(make_vec_env("BubbleRob-v0", n_envs=2, seed=0, env_kwargs=kwargs))
+    model = PPO("MultiInputPolicy", make_vec_env("BubbleRob-v0", n_envs=1, seed=0), n_steps=64,
+                batch_size=64, seed=0, device="cpu")  # fmt: skip
+    model.set_logger(configure(None, []))
+    evaluation = validation_evaluation(eval_env, n_eval_episodes=2, eval_freq=1, verbose=0)
+    evaluation.init_callback(model)
+    evaluation.on_step()
+    evaluation.on_step()
+    expected = [
+        gym.make("BubbleRob-v0").reset(seed=VALIDATION.start + i)[0]["laser"] for i in (0, 1)
+    ]
+    assert len(eval_env.resets) == 2
+    for first in eval_env.resets:
+        np.testing.assert_array_equal(first, np.stack(expected))
+    with pytest.raises(ValueError, match="one eval env per evaluation episode"):
+        validation_evaluation(eval_env, n_eval_episodes=3, eval_freq=1)
+
+
+def test_training_seeds_stay_below_the_validation_seeds():
+    from train.validation import check_training_seeds
+
+    check_training_seeds(992, 8)
+    with pytest.raises(ValueError, match=r"training seeds are 0-999.*--seed from 0 to 992"):
+        check_training_seeds(993, 8)

@@ -17,6 +17,8 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
+from policies.protocol import VALIDATION
+
 __all__ = [
     "VALIDATION_SEED",
     "add_sweep_arguments",
@@ -26,10 +28,10 @@ __all__ = [
     "train_run",
 ]
 
-VALIDATION_SEED = 2_000_000
-"""First validation seed: training (its seeds, then unseeded resets), its periodic evaluation
-(from 1,000,000) and ``bubblerob evaluate``'s held-out test episodes (from 1000) start from
-none of these."""
+VALIDATION_SEED = VALIDATION.start + 10_000
+"""First seed of the sweep's comparison: validation seeds (``policies/protocol.py``), but not
+the ones each run's checkpoints were chosen on (the first ``--eval-episodes`` from 1000), so
+the best checkpoint's luck on those does not pick the run. Never test seeds."""
 
 
 def seed_list(text: str) -> list[int]:
@@ -65,7 +67,8 @@ def add_sweep_arguments(parser: argparse.ArgumentParser) -> None:
         "--validation-episodes",
         type=int,
         default=20,
-        help="with --ray: episodes each best model is evaluated on (seeds from 2,000,000)",
+        help=f"with --ray: episodes each best model is evaluated on (validation seeds from "
+        f"{VALIDATION_SEED:,})",
     )
 
 

@@ -8,7 +8,8 @@ train/hyperparams/ppo.yml``); this project's own settings, how the envs are step
 A run writes into its output folder: ``config.yml`` (the hyperparameters used, after command-line
 overrides), ``settings.json`` (the project-only settings), ``command.txt`` (the command that
 reproduces it), ``versions.json`` (package versions), TensorBoard logs, checkpoints,
-``evaluations.npz`` and ``best_model.zip`` from periodic evaluation on held-out seeds, and the final
+``evaluations.npz`` and ``best_model.zip`` from periodic evaluation on validation seeds
+(``train/validation.py``: the same ``--eval-episodes`` seeds every time), and the final
 ``model.zip``.
 
 rl-zoo's ``env_wrapper`` key (``"module.Class"``, ``{"module.Class": {kwargs}}`` or a list of
@@ -28,10 +29,16 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
+from policies.loading import NORMALIZATION_SUFFIX
+from policies.protocol import VALIDATION
 from train.checks import check_hyperparams, check_train_arguments, parse_overrides
+from train.validation import (
+    check_training_seeds,
+    evaluation_score,
+    keep_best_model,
+    validation_evaluation,
+)
 
 __all__ = [
     "ALGOS",
@@ -45,9 +52,6 @@ __all__ = [
 
 ALGOS = ("ppo", "sac")
 HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
-NORMALIZATION_SUFFIX = "_vecnormalize.pkl"
-"""``<model stem><suffix>`` beside a model holds its VecNormalize statistics (``load_policy``)."""
-EVAL_SEED_OFFSET = 1_000_000  # evaluation episodes use seeds training never sees
 _NOT_ALGO_KWARGS = (
     "normalize",
     "n_timesteps",
@@ -147,42 +151,6 @@ def _versions() -> dict[str, str]:
     return found
 
 
-def evaluation_score(successes: Sequence[Any], mean_return: float) -> tuple[float, float]:
-    """How a run ranks its evaluations: success rate of the latest one first, then mean return.
-
-    ``successes`` is SB3's ``EvalCallback.evaluations_successes`` (one list per evaluation).
-    """
-    return (float(np.mean(successes[-1])) if len(successes) else 0.0, float(mean_return))
-
-
-def keep_best_model(out: Path) -> Any:
-    """An SB3 callback for ``EvalCallback(callback_after_eval=...)`` that keeps the safest model.
-
-    After each evaluation it saves ``out/best_model.zip`` (and its VecNormalize statistics) when
-    :func:`evaluation_score` beats every earlier one. SB3's own ``best_model`` is the highest mean
-    return, so a fast policy that crashes in one evaluation episode out of ten would beat a safe
-    one; here success comes first.
-    """
-    from stable_baselines3.common.callbacks import BaseCallback, EvalCallback
-
-    class KeepBestModel(BaseCallback):
-        best: tuple[float, float] = (-float("inf"), -float("inf"))
-
-        def _on_step(self) -> bool:
-            evaluation = self.parent
-            assert isinstance(evaluation, EvalCallback)
-            score = evaluation_score(evaluation.evaluations_successes, evaluation.last_mean_reward)
-            if score > self.best:
-                self.best = score
-                self.model.save(out / "best_model")
-                normalizer = self.model.get_vec_normalize_env()
-                if normalizer is not None:
-                    normalizer.save(str(out / f"best_model{NORMALIZATION_SUFFIX}"))
-            return True
-
-    return KeepBestModel()
-
-
 def train(
     algo: str,
     env_id: str,
@@ -207,7 +175,7 @@ def train(
     import torch
     import yaml
     from stable_baselines3 import PPO, SAC
-    from stable_baselines3.common.callbacks import CheckpointCallback, EvalCallback
+    from stable_baselines3.common.callbacks import CheckpointCallback
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import (
         DummyVecEnv,
@@ -229,6 +197,7 @@ def train(
         config["n_envs"] = n_envs
     config["seed"] = seed
     check_hyperparams(algo, config)
+    check_training_seeds(seed, int(config["n_envs"]))
     out.mkdir(parents=True, exist_ok=True)
     (out / "config.yml").write_text(yaml.safe_dump({env_id: config}, sort_keys=False))
     (out / "command.txt").write_text((command or _default_command(algo, env_id, out)) + "\n")
@@ -247,7 +216,7 @@ def train(
         envs = _batched_envs(env_id, count, seed, env_kwargs, wrap)
         # The same wrapper chain as training's: VecNormalize's statistics are synced by walking
         # both chains in step.
-        eval_env = _batched_envs(env_id, 1, seed + EVAL_SEED_OFFSET, env_kwargs, wrap)
+        eval_env = _batched_envs(env_id, eval_episodes, VALIDATION.start, env_kwargs, wrap)
     else:
         envs = make_vec_env(
             env_id,
@@ -257,10 +226,11 @@ def train(
             vec_env_cls=vec_cls,
             wrapper_class=wrap,
         )
+        # One env per validation episode (train/validation.py), stepped in this process.
         eval_env = make_vec_env(
             env_id,
-            n_envs=1,
-            seed=seed + EVAL_SEED_OFFSET,
+            n_envs=eval_episodes,
+            seed=VALIDATION.start,
             env_kwargs=env_kwargs,
             wrapper_class=wrap,
         )
@@ -290,7 +260,7 @@ def train(
         # SB3 transposes image observations (the camera) for the policy: the eval env alike.
         eval_env = VecTransposeImage(eval_env)
     callbacks: list[Any] = [
-        EvalCallback(
+        validation_evaluation(
             eval_env,
             n_eval_episodes=eval_episodes,
             eval_freq=max(1, eval_freq // count),
@@ -452,7 +422,10 @@ def run(args: argparse.Namespace, command: str, program: str) -> int:
         check_train_arguments(args)
         overrides = parse_overrides(args.set)
         _reject_project_settings(overrides)
-        check_hyperparams(args.algo, {**load_hyperparams(args.algo, args.env), **overrides})
+        config = {**load_hyperparams(args.algo, args.env), **overrides}
+        check_hyperparams(args.algo, config)
+        for seed in args.seeds or [args.seed]:
+            check_training_seeds(seed, int(args.n_envs or config.get("n_envs", 1)))
         out.mkdir(parents=True, exist_ok=True)
     except (ValueError, OSError) as error:
         reason = error.strerror if isinstance(error, OSError) and error.strerror else error
