@@ -31,6 +31,7 @@ _SUBCOMMAND_MODULES: tuple[tuple[str, str | None, tuple[str, ...]], ...] = (
     ("policies.teleop", None, ("teleop",)),
     ("bubblerob_env.ros.cli", "ros", ("record", "info", "replay", "recover", "node")),
     ("policies.bag_map", "ros", ("map",)),
+    ("bubblerob_env.ros.localize", "ros", ("localize",)),
     ("policies.cli", "demo", ("evaluate", "demo")),
     ("train.cli", "train", ("train",)),
 )
@@ -48,6 +49,7 @@ EXAMPLES = {
     "recover": "bubblerob recover bags/bubblerob_laser_seed0",
     "node": "bubblerob node --rate-factor 1 --namespace robot2",
     "map": "bubblerob map bags/bubblerob_laser_seed0 --out map.png",
+    "localize": "bubblerob localize bags/bubblerob_laser_seed0 --global --json",
     "teleop": "bubblerob teleop --start-pose 0 0 0 --record bags/drive",
 }
 

@@ -30,7 +30,7 @@ SITE = Path(sysconfig.get_paths()["purelib"])
 # Subcommands by the extra README installs for them (None: the env alone, no extra).
 SUBCOMMANDS = {
     None: ("teleop",),
-    "ros": ("record", "info", "replay", "recover", "node", "map"),
+    "ros": ("record", "info", "replay", "recover", "node", "map", "localize"),
     "demo": ("evaluate", "demo"),
     "train": ("train",),
 }
@@ -210,9 +210,15 @@ def test_ros_commands_with_only_the_ros_extra(wheel, installed, tmp_path) -> Non
                   "--max-steps", "40", "--no-progress", "--out", "bags", cwd=tmp_path)  # fmt: skip
     assert record.returncode == 0, record.stderr
     (bag,) = (tmp_path / "bags").iterdir()
-    for command in (["info", str(bag)], ["replay", str(bag)], ["map", str(bag), "--out", "m.png"]):
+    for command in (
+        ["info", str(bag)],
+        ["replay", str(bag)],
+        ["map", str(bag), "--out", "m.png"],
+        ["localize", str(bag), "--out", "l.png"],
+    ):
         ran = _run(prefix, "bubblerob", *command, cwd=tmp_path)
         assert ran.returncode == 0, (command, ran.stderr)
+    assert (tmp_path / "l.png").read_bytes()[:4] == b"\x89PNG"
     assert (tmp_path / "m.png").read_bytes()[:4] == b"\x89PNG"
 
 

@@ -143,14 +143,18 @@ def localise(
     config: FilterConfig | None = None,
     seed: int = 0,
     start_std: tuple[float, float, float] = (0.1, 0.1, 0.1),
+    start: tuple[float, float, float] | None = None,
 ) -> TrackResult:
-    """Run the filter over ``episode``: from the true start pose (``start_std``) or globally."""
+    """Run the filter over ``episode``: from a start pose (``start_std``) or globally.
+
+    ``start``: the pose tracking starts from (an ``/initialpose``); default the true start pose.
+    """
     started = time.process_time()
     pf = ParticleFilter(LikelihoodField(episode.grid), episode.geometry, config, seed)
     if global_start:
         pf.start_global()
     else:
-        x, y, yaw = episode.truth[0]
+        x, y, yaw = episode.truth[0] if start is None else start
         pf.start_at((float(x), float(y), float(yaw)), start_std)
     estimates = np.empty_like(episode.truth)
     for t, (odom, scan) in enumerate(zip(episode.odometry, episode.scans, strict=True)):
