@@ -104,6 +104,9 @@ class RosConverter(FrameValues):
             n.lower(): n for n, _ in self.store.fielddefs["sensor_msgs/msg/CameraInfo"][1]
         }
         self._range_fields = {n for n, _ in self.store.fielddefs["sensor_msgs/msg/Range"][1]}
+        self.static_map_to_odom = True
+        """Whether ``/tf_static`` has the identity ``map -> odom``; False where a localiser
+        (``bubblerob node --localize``, as AMCL) publishes ``map -> odom`` on ``/tf``."""
         self._init_values(specs)
 
     def frame_keys(self, stepped: bool) -> tuple[str, ...]:
@@ -317,10 +320,11 @@ class RosConverter(FrameValues):
         return self._msg("truncated", data=v["truncated"])
 
     def tf_static(self, stamp_ns: int) -> Any:
-        """``/tf_static``: ``map -> odom`` (identity), ``base_link`` to every sensor frame."""
+        """``/tf_static``: ``map -> odom`` (identity, see :attr:`static_map_to_odom`), sensors."""
         sec, nanosec = split_stamp(stamp_ns)
         v = {"sec": sec, "nanosec": nanosec, "seq": 0}
-        transforms = [self._transform(v, MAP_FRAME, ODOM_FRAME, (0.0, 0.0, 0.0), (0, 0, 0, 1.0))]
+        identity = self._transform(v, MAP_FRAME, ODOM_FRAME, (0.0, 0.0, 0.0), (0, 0, 0, 1.0))
+        transforms = [identity] if self.static_map_to_odom else []
         transforms += [
             self._transform(v, s.parent, s.child, s.translation, s.rotation_xyzw)
             for s in self.specs.static_transforms
