@@ -121,14 +121,17 @@ class LaserPolicy(_Policy):
         self.straight_preference = straight_preference
         self._ray_angles = laser_spec.angles()
         self._headings = np.linspace(-max_heading, max_heading, 41)
-        # Per (heading, ray): the ray's angle relative to the heading.
+        # Per (heading, ray): the ray's angle relative to the heading, its cosine and |sine|
+        # (computed once: they were most of a step's time, recomputed from the same angles).
         self._relative = self._ray_angles[None, :] - self._headings[:, None]
+        self._cos_relative = np.cos(self._relative)
+        self._abs_sin_relative = np.abs(np.sin(self._relative))
 
     def free_length(self, ranges: NDArray[np.float32]) -> NDArray[np.float64]:
         """Free corridor length (m) along each candidate heading."""
         r = np.minimum(np.asarray(ranges, dtype=np.float64), self.horizon + 1.0)
-        along = r[None, :] * np.cos(self._relative)
-        across = np.abs(r[None, :] * np.sin(self._relative))
+        along = r[None, :] * self._cos_relative
+        across = r[None, :] * self._abs_sin_relative  # r >= 0: |r sin| = r |sin|, exactly
         blocks = (across < self.half_width) & (along > 0) & (r[None, :] < self.laser_spec.range_max)
         free: NDArray[np.float64] = np.where(blocks, along, self.horizon).min(axis=1)
         return free.clip(max=self.horizon)
