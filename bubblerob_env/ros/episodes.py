@@ -174,6 +174,10 @@ class EpisodeStream:
         if seed is None:  # replay restores the generator instead of seeding it
             rng_state = jsonable(env.unwrapped.np_random.bit_generator.state)
         obs, info = env.reset(seed=seed, options=options)
+        if self.fanout.detects and self.fanout.detector is None:
+            from bubblerob_env.vision.recognise import Recogniser  # numba: only for a camera
+
+            self.fanout.detector = Recogniser.for_env(env.unwrapped)
         metadata = {
             "episode": self.episodes,
             "seed": seed,

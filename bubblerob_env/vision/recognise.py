@@ -28,6 +28,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
@@ -111,11 +112,18 @@ class Recogniser:
 
     @classmethod
     def for_env(cls, env: Any, min_pixels: int = 8) -> Recogniser:
-        """One for the camera of ``env`` (a ``BubbleRobEnv``, unwrapped, after a reset)."""
+        """One for the camera of ``env`` (a ``BubbleRobEnv``, unwrapped).
+
+        The same for every episode of the env: the camera's height is that of the model's
+        default pose (the robot stands on the floor in every pose, but a pose's own height may
+        differ in the last bit, and replay must rebuild the recorder's recogniser exactly).
+        """
         if env.camera_spec is None:
             raise ValueError("the env has no camera: make it with camera=True or a camera size")
         # The arena's floor is the plane z = 0; every obstacle slot has the obstacles' height.
-        camera_height = CameraPose.of(env.model, env.data).z
+        default_pose = mujoco.MjData(env.model)
+        mujoco.mj_forward(env.model, default_pose)
+        camera_height = CameraPose.of(env.model, default_pose).z
         box_slot = env.model.geom(f"{names.BOX_SLOT_PREFIX}0").id
         obstacle_height = 2.0 * float(env.model.geom_size[box_slot][2])
         return cls(env.camera_spec, camera_height, obstacle_height, min_pixels)

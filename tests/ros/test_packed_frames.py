@@ -73,7 +73,9 @@ def _record(
     assert bag.framing() is not None
     sink = _RecordsOnly(bag) if mode == "records" else bag  # the record-by-record path
     batch_frames = {"batched": 7, "packed": 0, "records": 0}[mode]
-    fanout = MessageFanout(EnvSpecs.from_env(env), Topics(), batch_frames=batch_frames)
+    # /detections turn batching off (tests/ros/test_detections.py): camera frames batch without.
+    topics = Topics(detections=None)
+    fanout = MessageFanout(EnvSpecs.from_env(env), topics, batch_frames=batch_frames)
     fanout.add_sink(sink)
     assert fanout.batching == (mode == "batched")
     records: list[Record] = []

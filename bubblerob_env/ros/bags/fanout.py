@@ -9,7 +9,7 @@ frames records (a recorder), frames after steps are gathered and packed in batch
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, SupportsFloat
 
 from numpy.typing import NDArray
@@ -19,6 +19,7 @@ from bubblerob_env.ros.bags.writers import PackedBatchWriter, PackedWriter
 from bubblerob_env.ros.fastpath.batch import FrameBatch
 from bubblerob_env.ros.fastpath.framing import Framing
 from bubblerob_env.ros.fastpath.serializer import FramePacker, FrameSerializer
+from bubblerob_env.ros.messages.detections import Recognised
 from bubblerob_env.ros.messages.topics import Topics
 from bubblerob_env.specs import EnvSpecs
 
@@ -57,6 +58,10 @@ class MessageFanout:
         self._sends: dict[str, tuple[_Send, _Send]] = {}  # per distro: after a reset, a step
         self._plan: tuple[list[_Send], list[_Send]] = ([], [])  # every distro's sends
         self._convert: Callable[..., tuple[Any, ...]] | None = None  # frame_args
+        self.detects = specs.camera is not None and topics.detections is not None
+        """Whether frames carry ``/detections``: then each image goes through :attr:`detector`."""
+        self.detector: Callable[[NDArray[Any]], Sequence[Recognised]] | None = None
+        """The recogniser of the camera's images (``EpisodeStream.reset`` sets one for its env)."""
 
     def serializer(self, distro: str) -> FrameSerializer:
         """The serializer of ``distro`` (made on first use)."""
@@ -104,6 +109,8 @@ class MessageFanout:
         self._batch, self._batch_sends = None, []
         sinks = self.sinks
         if not self.batch_frames or not sinks or any(s.framing() is None for s in sinks):
+            return
+        if self.detects:  # each frame's /detections follow it: frame by frame, as live
             return
         groups: dict[tuple[str, Framing], list[PackedBatchWriter]] = {}
         for sink in sinks:
@@ -210,6 +217,22 @@ class MessageFanout:
         args = convert(obs, info, stamp_ns, seq, action, reward, terminated, truncated)
         for send in self._plan[action is not None]:
             send(args, stamp_ns, action_stamp)
+        if self.detects:
+            self._write_detections(obs["camera"], stamp_ns, seq)
+
+    def _write_detections(self, image: NDArray[Any], stamp_ns: int, seq: int) -> None:
+        """``/detections`` of a frame's ``image``, recognised once, to every sink."""
+        if self.detector is None:
+            raise RuntimeError(
+                "frames with a camera have /detections: set MessageFanout.detector (a "
+                "bubblerob_env.vision Recogniser; EpisodeStream.reset does) or leave the "
+                "topic out (Topics(detections=None))"
+            )
+        found = self.detector(image)
+        for distro, sinks in self._sinks.items():
+            records = self._serializers[distro].detections(found, stamp_ns, seq)
+            for sink in sinks:
+                sink.write_batch(records)
 
     def write_records(self, make: Any) -> None:
         """Send records made per distro by ``make(serializer) -> list[Record]``."""

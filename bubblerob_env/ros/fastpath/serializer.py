@@ -17,10 +17,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from bubblerob_env.ros.fastpath.detections import DetectionPacker
 from bubblerob_env.ros.fastpath.encode import Item, items_size, message_items
 from bubblerob_env.ros.fastpath.framing import FrameLayout, Framing, Record
 from bubblerob_env.ros.fastpath.packer import Packer
 from bubblerob_env.ros.messages.convert import MAP_SLOTS, RosConverter
+from bubblerob_env.ros.messages.detections import Recognised
 from bubblerob_env.ros.messages.distros import serialize
 from bubblerob_env.ros.messages.topics import LATCHED_TOPICS, MSGTYPES, Topics
 from bubblerob_env.ros.messages.values import Slot, split_stamp
@@ -105,6 +107,9 @@ class FrameSerializer:
             ]
             for stepped in (False, True)
         }
+        self.detects = specs.camera is not None and "detections" in self.names
+        """Whether frames have ``/detections`` (the camera is on and the topic not left out)."""
+        self._detections = DetectionPacker(self.converter) if self.detects else None
         self._raw = Framing("raw", tuple((name, i) for i, name in enumerate(self.names.values())))
         self._packers: dict[tuple[Framing, bool], FramePacker] = {}
         self._map_packers: dict[tuple[Any, ...], Packer] = {}
@@ -123,6 +128,7 @@ class FrameSerializer:
     def topics(self) -> list[tuple[str, str, bool]]:
         """``(name, msgtype, latched)`` of every topic a bag of these frames holds."""
         keys = [*self.converter.frame_keys(True), *LATCHED_TOPICS]
+        keys += ["detections"] if self.detects else []
         return [(self.names[k], MSGTYPES[k], k in LATCHED_TOPICS) for k in keys if k in self.names]
 
     def frame(
@@ -135,6 +141,16 @@ class FrameSerializer:
         packer = self.packer(None, stepped)
         data = packer.pack_one(args, stamp_ns, action_stamp_ns)
         return packer.records(data, stamp_ns, action_stamp_ns)
+
+    def detections(self, found: Sequence[Recognised], stamp_ns: int, seq: int) -> list[Record]:
+        """The ``/detections`` record of objects ``found`` in the image of frame ``seq``.
+
+        None when the frames have no detections (:attr:`detects`).
+        """
+        if self._detections is None:
+            return []
+        data = self._detections.pack(found, stamp_ns, seq)
+        return [(self.names["detections"], stamp_ns, data)]
 
     def tf_static(self, stamp_ns: int) -> list[Record]:
         """The ``/tf_static`` record (none if that topic is left out)."""

@@ -27,12 +27,13 @@ a localiser (AMCL) estimates the ``map -> odom`` that the drift makes.
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 from rosbags.typesys.store import Typestore
 
+from bubblerob_env.ros.messages.detections import detection_array
 from bubblerob_env.ros.messages.distros import get_distro, typestore
 from bubblerob_env.ros.messages.topics import MSGTYPES
 from bubblerob_env.ros.messages.values import (
@@ -359,6 +360,19 @@ class RosConverter(FrameValues):
         return self._msg(
             "map", header=self._header(v, MAP_FRAME), info=info, data=_array(v["cells"], np.int8)
         )
+
+    def detections(
+        self, v: Mapping[str, Any], classes: Sequence[str], numbers: Sequence[Mapping[str, Any]]
+    ) -> Any:
+        """``/detections`` of the image of values ``v`` (``sec``, ``nanosec``, ``seq``).
+
+        One detection per class in ``classes``, with its ``numbers``; see
+        :mod:`~bubblerob_env.ros.messages.detections`.
+        """
+        spec = self.specs.camera
+        assert spec is not None
+        header = self._header(v, spec.frame_id)
+        return detection_array(self._types, header, classes, numbers)
 
     def episode(self, metadata: Mapping[str, Any]) -> Any:
         """``/bubblerob/episode``: the episode's metadata as a JSON ``std_msgs/String``."""

@@ -5,8 +5,10 @@
 matches; a live ``rospy`` subscriber checks the same. ``rosbags``' Noetic type store has the types
 but not the comments, so the ``.msg`` files are vendored verbatim from the Noetic releases that
 Debian packages (std_msgs 0.5.13, common_msgs 1.13.1, geometry2 0.7.6, ros_comm_msgs 1.11.3; BSD
-licence). :func:`ros1_definition` assembles the full text as genmsg does and takes the md5sum from
-``rosbags``; ``tests/ros/test_ros1_tools.py`` checks both against Debian's installed packages.
+licence), and ``vision_msgs`` 4.1.1 (:data:`VISION_MSGS`, ROS 2 Jazzy's release; Apache 2.0),
+which Noetic's Debian packages lack. :func:`ros1_definition` assembles the full text as genmsg
+does and takes the md5sum from ``rosbags``; ``tests/ros/test_ros1_tools.py`` checks both against
+Debian's installed packages (``tests/ros/test_detections.py``: vision_msgs' md5sum with genpy).
 """
 
 from __future__ import annotations
@@ -14,7 +16,21 @@ from __future__ import annotations
 from functools import cache
 from importlib import resources
 
-__all__ = ["full_text", "msg_text", "ros1_definition"]
+__all__ = ["VISION_MSGS", "full_text", "msg_text", "ros1_definition"]
+
+VISION_MSGS = (
+    "vision_msgs/Point2D", "vision_msgs/Pose2D", "vision_msgs/BoundingBox2D",
+    "vision_msgs/ObjectHypothesis", "vision_msgs/ObjectHypothesisWithPose",
+    "vision_msgs/Detection2D", "vision_msgs/Detection2DArray",
+)  # fmt: skip
+"""The vendored ``vision_msgs`` types, dependencies first: ``/detections``' message and its parts.
+
+The same text in ROS 1 and ROS 2 bags: vision_msgs 4.x is ROS 2's (Noetic's vision_msgs 1.x has
+another ``Detection2D``, and Debian packages no vision_msgs at all), so a ROS 1 bag holds the
+Jazzy layout under the name ``vision_msgs/Detection2DArray``, its full text and md5sum in the
+connection header: readers that build classes from the bag (``rosbag``, ``rosbags``,
+``rostopic echo -b``) decode it; a node built against Noetic's vision_msgs would refuse its md5sum.
+"""
 
 _SEPARATOR = "=" * 80 + "\n"
 _BUILTIN = {

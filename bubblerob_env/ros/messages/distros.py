@@ -16,7 +16,7 @@ from typing import Any
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
-from bubblerob_env.ros.messages.definitions import msg_text, ros1_definition
+from bubblerob_env.ros.messages.definitions import VISION_MSGS, msg_text, ros1_definition
 
 __all__ = [
     "DISTROS",
@@ -63,12 +63,17 @@ def get_distro(name: str) -> Distro:
 def typestore(name: str) -> Typestore:
     """The type store of distro ``name``, completed with the types it lacks.
 
-    ``rosbags``' Noetic store has no ``tf2_msgs/TFMessage``; its genuine definition is registered.
+    ``rosbags``' Noetic store has no ``tf2_msgs/TFMessage`` and no store has ``vision_msgs``:
+    their genuine definitions are registered (vision_msgs 4.1.1's, ROS 2 Jazzy's, in every
+    distro: see :data:`~bubblerob_env.ros.messages.definitions.VISION_MSGS`).
     """
     store = get_typestore(get_distro(name).store)
-    if "tf2_msgs/msg/TFMessage" not in store.fielddefs:
-        text = msg_text("tf2_msgs/TFMessage")
-        store.register(get_types_from_msg(text, "tf2_msgs/msg/TFMessage"))
+    types = {}
+    for msgtype in ("tf2_msgs/TFMessage", *VISION_MSGS):
+        full_name = msgtype.replace("/", "/msg/")
+        if full_name not in store.fielddefs:
+            types.update(get_types_from_msg(msg_text(msgtype), full_name))
+    store.register(types)
     return store
 
 

@@ -10,9 +10,11 @@ from __future__ import annotations
 
 import dataclasses
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 __all__ = [
+    "ADDED_TOPICS",
     "GLOBAL_TOPICS",
     "LATCHED_TOPICS",
     "MSGTYPES",
@@ -44,11 +46,15 @@ MSGTYPES: dict[str, str] = {
     "episode": "std_msgs/msg/String",
     "map": "nav_msgs/msg/OccupancyGrid",
     "base_pose_ground_truth": "nav_msgs/msg/Odometry",
+    "detections": "vision_msgs/msg/Detection2DArray",
 }
 """Message type of each topic key (ROS 2 style names, as ``rosbags`` spells them)."""
 
 LATCHED_TOPICS = ("tf_static", "episode", "map")
 """Keys written latched (ROS 1) / transient-local (ROS 2): a late subscriber still gets them."""
+
+ADDED_TOPICS = ("detections",)
+"""Keys added after the first recordings: absent from their metadata, so not in their bags."""
 
 GLOBAL_TOPICS = ("tf", "tf_static", "clock")
 """Keys whose names a namespace does not change (tf and the clock are shared by all robots)."""
@@ -96,7 +102,9 @@ class Topics:
     ground-truth ``nav_msgs/OccupancyGrid``, once per episode (latched). With the env's
     ``odometry_noise`` > 0, ``/odom`` drifts and ``/base_pose_ground_truth`` has the true pose
     (``nav_msgs/Odometry`` in ``map``, as Stage's ROS driver names it); without, ``/odom`` is the
-    truth and that topic is not written.
+    truth and that topic is not written. ``/detections`` (``vision_msgs/Detection2DArray``) has
+    what the recogniser (:mod:`bubblerob_env.vision`) finds in each camera image, stamped with the
+    image's stamp and frame; ``None`` turns the recogniser off.
     """
 
     scan: str | None = "/scan"
@@ -119,6 +127,7 @@ class Topics:
     episode: str | None = "/bubblerob/episode"
     map: str | None = "/map"
     base_pose_ground_truth: str | None = "/base_pose_ground_truth"
+    detections: str | None = "/detections"
     namespace: str = ""
 
     def __post_init__(self) -> None:
@@ -164,8 +173,18 @@ class Topics:
         return names
 
     def to_dict(self) -> dict[str, str | None]:
-        """Plain dict (for episode metadata); ``Topics(**d)`` rebuilds it."""
+        """Plain dict (for episode metadata); :meth:`from_dict` rebuilds it."""
         return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, names: Mapping[str, str | None]) -> Topics:
+        """The topics of a :meth:`to_dict` dict, as recorded in an episode's metadata.
+
+        Keys that recordings made before a topic existed lack are that topic left out (``None``),
+        so that such a bag is read as what it holds.
+        """
+        absent = {key: None for key in ADDED_TOPICS if key not in names}
+        return cls(**{**names, **absent})  # type: ignore[arg-type]
 
     def replace(self, **changes: str | None) -> Topics:
         """A copy with some names changed, e.g. ``replace(image=None)``."""

@@ -145,7 +145,8 @@ def _make_env(meta: dict[str, Any]) -> gym.Env[Any, Any]:
 
 def _serializer(env: gym.Env[Any, Any], meta: dict[str, Any]) -> FrameSerializer:
     try:
-        return FrameSerializer(EnvSpecs.from_env(env), meta["distro"], Topics(**meta["topics"]))
+        topics = Topics.from_dict(meta["topics"])
+        return FrameSerializer(EnvSpecs.from_env(env), meta["distro"], topics)
     except (KeyError, TypeError, ValueError) as error:
         raise ReplayError(
             f"episode {meta.get('episode')}'s metadata names no usable distro and topics "
@@ -250,8 +251,9 @@ def _replay_episode(
     offset = start - round(float(info["sim_time"]) * 1e9)
     seq = meta["first_seq"]
     convert = serializer.converter.frame_args
+    detect = _detector(env, serializer)
     args = convert(obs, info, start, seq)
-    divergence = check(serializer.frame(args, start, start, False), 0)
+    divergence = check(serializer.frame(args, start, start, False) + detect(obs, start, seq), 0)
     if divergence is not None:
         return 0, compared, divergence
     last = start
@@ -260,7 +262,8 @@ def _replay_episode(
         seq += 1
         stamp = offset + round(float(info["sim_time"]) * 1e9)
         args = convert(obs, info, stamp, seq, action, float(reward), terminated, truncated)
-        divergence = check(serializer.frame(args, stamp, last, True), step)
+        records = serializer.frame(args, stamp, last, True) + detect(obs, stamp, seq)
+        divergence = check(records, step)
         if divergence is not None:
             return step, compared, divergence
         last = stamp
@@ -273,6 +276,16 @@ def _replay_episode(
                 Divergence(meta["episode"], len(actions), topic, "message", extra, "none"),
             )
     return len(actions), compared, None
+
+
+def _detector(env: gym.Env[Any, Any], serializer: FrameSerializer) -> Any:
+    """``detect(obs, stamp, seq)``: the ``/detections`` record of a frame, as the recorder's."""
+    if not serializer.detects:
+        return lambda obs, stamp, seq: []
+    from bubblerob_env.vision.recognise import Recogniser  # numba: only for a camera
+
+    recogniser = Recogniser.for_env(env.unwrapped)
+    return lambda obs, stamp, seq: serializer.detections(recogniser(obs["camera"]), stamp, seq)
 
 
 def _decoder(serializer: FrameSerializer) -> Any:
