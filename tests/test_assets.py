@@ -39,7 +39,7 @@ def test_robot_file_compiles_alone_with_its_motors_sensors_and_names(robot):
 def test_robot_radius_bounds_every_robot_geom_seen_from_above(robot):
     # Each geom's horizontal reach from base_link, from the compiled model: sphere and cylinder
     # extents in the plane (cylinders' axes are along y for wheels, z for the laser housing),
-    # an upright box's four corners.
+    # a box's corners.
     model = mujoco.MjModel.from_xml_path(str(robot.robot_file))
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
@@ -50,10 +50,16 @@ def test_robot_radius_bounds_every_robot_geom_seen_from_above(robot):
         size = model.geom_size[g]
         if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_SPHERE:
             corners = [centre[:2] + size[0] * np.array(d) for d in ((1, 0), (-1, 0), (0, 1))]
-        elif model.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX:
-            axes = data.geom_xmat[g].reshape(3, 3)[:2, :2]
+        elif int(model.geom_type[g]) in (
+            mujoco.mjtGeom.mjGEOM_BOX,
+            mujoco.mjtGeom.mjGEOM_ELLIPSOID,
+        ):
+            # A box's eight corners seen from above; an ellipsoid's box bounds it.
+            axes = data.geom_xmat[g].reshape(3, 3)
             corners = [
-                centre[:2] + axes @ (size[:2] * np.array((a, b))) for a in (-1, 1) for b in (-1, 1)
+                centre[:2] + (axes @ (size * np.array(signs)))[:2]
+                for signs in np.ndindex(2, 2, 2)
+                for signs in [tuple(2 * np.array(signs) - 1)]
             ]
         else:  # a cylinder: radius size[0] around its axis, half-length size[1] along it
             axis = data.geom_xmat[g].reshape(3, 3)[:, 2][:2]
@@ -109,7 +115,24 @@ def test_robot_geoms_are_hidden_from_the_laser_and_collide_with_obstacles(robot)
     assert robot, "the robot has no geoms"
     for g in robot:
         assert model.geom_group[g] == names.ROBOT_GROUP
-        assert model.geom_conaffinity[g] & 2, f"geom {model.geom(g).name} cannot hit obstacles"
+        if model.geom_conaffinity[g] & 2:
+            continue
+        # A floor-only geom (the Pioneer's treads) must lie inside one of its body's geoms
+        # that hits obstacles: an ellipsoid in a cylinder of the same pose.
+        name = model.geom(g).name
+        assert (model.geom_contype[g], model.geom_conaffinity[g]) == (1, 1), name
+        assert model.geom_type[g] == mujoco.mjtGeom.mjGEOM_ELLIPSOID, name
+        hull = [
+            h
+            for h in range(model.ngeom)
+            if model.geom_bodyid[h] == model.geom_bodyid[g] and model.geom_conaffinity[h] & 2
+        ]
+        assert len(hull) == 1, f"{name} has no geom around it that hits obstacles"
+        radius, half_width = model.geom_size[hull[0]][:2]
+        assert model.geom_size[g][0] == model.geom_size[g][1] <= radius, name
+        assert model.geom_size[g][2] <= half_width, name
+        assert np.allclose(model.geom_pos[g], model.geom_pos[hull[0]]), name
+        assert np.allclose(model.geom_quat[g], model.geom_quat[hull[0]]), name
     walls = [model.geom(n).id for n in names.ARENA_WALLS]
     assert np.all(model.geom_group[walls] == names.OBSTACLE_GROUP)
     assert model.geom(names.FLOOR_GEOM).group == names.FLOOR_GROUP

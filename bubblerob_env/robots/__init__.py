@@ -1,7 +1,7 @@
 """The robots, as data: one :class:`RobotDescription` per robot, by name in :data:`ROBOTS`.
 
-``gym.make("BubbleRob-v0")`` is ``robot="bubblerob"``; any env kwarg left ``None`` takes the
-robot's value.
+``gym.make("BubbleRob-v0")`` is ``robot="bubblerob"``, ``gym.make("PioneerP3DX-v0")`` is
+``robot="pioneer_p3dx"``; any env kwarg left ``None`` takes the robot's value.
 """
 
 from __future__ import annotations
@@ -14,10 +14,12 @@ from bubblerob_env.robots.description import (
     ProximityDefaults,
     RobotDescription,
 )
+from bubblerob_env.robots.pioneer_p3dx import PIONEER_P3DX
 
 __all__ = [
     "ASSETS_DIR",
     "BUBBLEROB",
+    "PIONEER_P3DX",
     "ROBOTS",
     "ArenaDefaults",
     "LaserDefaults",
@@ -26,7 +28,7 @@ __all__ = [
     "robot_description",
 ]
 
-ROBOTS: dict[str, RobotDescription] = {robot.name: robot for robot in (BUBBLEROB,)}
+ROBOTS: dict[str, RobotDescription] = {robot.name: robot for robot in (BUBBLEROB, PIONEER_P3DX)}
 """Every robot by its name."""
 
 
