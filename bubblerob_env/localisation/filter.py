@@ -187,6 +187,22 @@ class ParticleFilter:
         inverse = relative_motion(odom, np.zeros(3))
         return compose(self._pose_at_update, inverse)
 
+    def covariance(self) -> NDArray[np.float64]:
+        """Weighted 3x3 covariance of x, y (m) and yaw (rad, about the mean heading), as AMCL's."""
+        weights = np.exp(self.log_weights - self.log_weights.max())
+        weights /= weights.sum()
+        mean_yaw = math.atan2(
+            float(weights @ np.sin(self.particles[:, 2])),
+            float(weights @ np.cos(self.particles[:, 2])),
+        )
+        offsets = np.column_stack(
+            [
+                self.particles[:, :2] - weights @ self.particles[:, :2],
+                angle_difference(self.particles[:, 2], mean_yaw),
+            ]
+        )
+        return np.asarray((offsets * weights[:, None]).T @ offsets)
+
     def spread(self) -> tuple[float, float]:
         """Weighted standard deviations of position (m) and heading (rad) of all particles."""
         weights = np.exp(self.log_weights - self.log_weights.max())

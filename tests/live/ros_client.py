@@ -291,6 +291,105 @@ def cmd_tutorialloop(args):
     return {"steps": done.count, "collisions": sum(m.data for m in term.all), "triggers": triggers}
 
 
+def pose_tuple(stamp, pose):
+    import math
+
+    p, q = pose.position, pose.orientation
+    yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+    return [stamp.to_nsec(), p.x, p.y, yaw]
+
+
+def raw_pose_publisher(topic):
+    """A publisher of PoseWithCovarianceStamped that sends any bytes (to send malformed ones)."""
+    from io import BytesIO
+
+    from geometry_msgs.msg import PoseWithCovarianceStamped as Pwcs
+
+    cls = type(
+        "RawPose",
+        (rospy.AnyMsg,),
+        {
+            "_type": Pwcs._type,
+            "_md5sum": Pwcs._md5sum,
+            "_full_text": Pwcs._full_text,
+            "__slots__": (),
+        },
+    )
+    pub = publisher(topic, cls)
+
+    def send(message=None, raw=None):
+        if message is not None:
+            buffer = BytesIO()
+            message.serialize(buffer)
+            raw = buffer.getvalue()
+        msg = cls()
+        msg._buff = raw
+        pub.publish(msg)
+
+    return send
+
+
+def initial_pose(frame, x, y, yaw, variance=0.01):
+    import math
+
+    from geometry_msgs.msg import PoseWithCovarianceStamped
+
+    msg = PoseWithCovarianceStamped()
+    msg.header.frame_id = frame
+    msg.pose.pose.position.x, msg.pose.pose.position.y = x, y
+    msg.pose.pose.orientation.z, msg.pose.pose.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
+    covariance = [0.0] * 36
+    covariance[0] = covariance[7] = covariance[35] = variance
+    msg.pose.covariance = covariance
+    return msg
+
+
+def cmd_localize(args):
+    """Drive a circle; /amcl_pose and the truth; malformed /initialpose, then a valid one."""
+    from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped
+
+    amcl = Counter(ns(args, "amcl_pose"), PoseWithCovarianceStamped, keep=True)
+    truth = Counter(ns(args, "base_pose_ground_truth"), Odometry, keep=True)
+    odom = Counter(ns(args, "odom"), Odometry)
+    cloud = Counter(ns(args, "particlecloud"), PoseArray)
+    tf = Counter("/tf", TFMessage, keep=True)
+    static = Counter("/tf_static", TFMessage, keep=True)
+    for c in (amcl, truth, cloud, tf):
+        wait_connected(c.sub)
+    send = raw_pose_publisher(ns(args, "initialpose"))
+    publisher(ns(args, "cmd_vel"), Twist, latch=True).publish(twist(args.linear, args.angular))
+    time.sleep(args.seconds)
+    tracked = [pose_tuple(m.header.stamp, m.pose.pose) for m in list(amcl.all)]
+    truths = [pose_tuple(m.header.stamp, m.pose.pose) for m in list(truth.all)]
+    last_odom = pose_tuple(odom.latest.header.stamp, odom.latest.pose.pose)
+    frame = args.frame_prefix + "map"
+    send(raw=b"\x01" * 9)  # too short for the type
+    send(initial_pose(frame, float("nan"), 0.0, 0.0))
+    send(initial_pose("base_link", 0.0, 0.0, 0.0))
+    time.sleep(1.0)
+    after_bad = amcl.count
+    _, x, y, yaw = pose_tuple(truth.latest.header.stamp, truth.latest.pose.pose)
+    target = [x + args.offset, y, yaw]
+    send(initial_pose(frame, *target))
+    moved = amcl.wait(after_bad + 1)
+    return {
+        "tracked": tracked,
+        "truth": truths,
+        "odom_last": last_odom,
+        "clouds": cloud.count,
+        "cloud_size": len(cloud.latest.poses),
+        "cloud_frame": cloud.latest.header.frame_id,
+        "amcl_frame": amcl.all[0].header.frame_id,
+        "amcl_covariance": list(amcl.all[-1].pose.covariance),
+        "tf_map_odom": sum(1 for m in tf.all for t in m.transforms if t.header.frame_id == frame),
+        "tf_static": [
+            [t.header.frame_id, t.child_frame_id] for m in static.all for t in m.transforms
+        ],
+        "target": target,
+        "moved": pose_tuple(moved.header.stamp, moved.pose.pose),
+    }
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--ns", default="")
@@ -316,6 +415,12 @@ def main():
     p.add_argument("--settle", type=float, default=0.5)
     p = sub.add_parser("states")
     p.add_argument("--pause-seconds", type=float, default=0.5)
+    p = sub.add_parser("localize")
+    p.add_argument("--linear", type=float, default=0.2)
+    p.add_argument("--angular", type=float, default=0.5)
+    p.add_argument("--seconds", type=float, default=5.0)
+    p.add_argument("--offset", type=float, default=0.5)
+    p.add_argument("--frame-prefix", default="")
     p = sub.add_parser("tutorialloop")
     p.add_argument("--steps", type=int, default=600)
     p.add_argument("--forward", type=float, default=8.0)

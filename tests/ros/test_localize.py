@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import math
 import os
 import re
 import shlex
@@ -137,3 +138,42 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path, monkeypatch, capsys, args, m
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and message in err, err
     assert err.startswith("bubblerob localize: ")
+
+
+@pytest.mark.parametrize("distro", ["noetic", "humble", "jazzy"])
+@pytest.mark.parametrize("count", [0, 1, 5])
+def test_particle_cloud_bytes_are_rosbags_serialisation(distro, count):
+    # The live node packs /particlecloud with NumPy: the bytes rosbags writes for the same poses.
+    from bubblerob_env.ros.live import amcl_messages
+    from bubblerob_env.ros.messages.distros import serialize, typestore
+
+    particles = np.random.default_rng(count).uniform(-2.0, 2.0, (count, 3))
+    for frame in ("map", "robot2/map", "m"):  # frame lengths that move CDR's alignment
+        got = amcl_messages.particle_cloud(distro, 1_795_630_734_076_000_000, frame, particles)
+        types = typestore(distro).types
+        header = amcl_messages._header(distro, 1_795_630_734_076_000_000, frame)
+        poses = [amcl_messages._pose(types, tuple(p)) for p in particles]
+        message = types[amcl_messages.PARTICLE_CLOUD](header=header, poses=poses)
+        assert got == serialize(distro, message, amcl_messages.PARTICLE_CLOUD), frame
+
+
+@pytest.mark.parametrize("distro", ["noetic", "jazzy"])
+def test_initial_pose_round_trip_and_refusals(distro):
+    from bubblerob_env.ros.live import amcl_messages as am
+
+    covariance = np.diag([0.04, 0.09, 0.0, 0.0, 0.0, 0.01])
+    raw = am.amcl_pose(
+        distro, 10**18, "map", (1.0, -0.5, 2.0), covariance[np.ix_([0, 1, 5], [0, 1, 5])]
+    )
+    pose, std = am.decode_initial_pose(distro, raw, "map")
+    np.testing.assert_allclose(pose, (1.0, -0.5, 2.0), atol=1e-12)
+    np.testing.assert_allclose(std, (0.2, 0.3, 0.1), atol=1e-12)
+    for bad, reason in [
+        (raw[:9], "undecodable"),
+        (am.amcl_pose(distro, 10**18, "odom", (0, 0, 0), np.eye(3)), "wrong frame"),
+        (am.amcl_pose(distro, 10**18, "map", (math.nan, 0, 0), np.eye(3)), "non-finite"),
+        (am.amcl_pose(distro, 10**18, "map", (0, 0, 0), -np.eye(3)), "negative variance"),
+    ]:
+        with pytest.raises(am.InitialPoseError) as caught:
+            am.decode_initial_pose(distro, bad, "map")
+        assert caught.value.reason == reason

@@ -127,6 +127,16 @@ def add_node_subcommand(subparsers: Any) -> None:
         metavar="M",
         help="metres per cell of the latched /map, 0.005 to 1",
     )
+    node.add_argument(
+        "--localize",
+        nargs="?",
+        const="track",
+        default=None,
+        choices=("track", "global"),
+        help="run the particle filter as AMCL: /amcl_pose, /particlecloud, map -> odom on /tf, "
+        "/initialpose in; 'track' (the default) from each episode's start pose, 'global' from "
+        "particles over all the free space",
+    )
     node.add_argument("--steps", type=int, default=None, help="exit after this many steps")
     node.add_argument("--duration", type=float, default=None, help="exit after this many seconds")
     node.add_argument(
@@ -203,12 +213,16 @@ def _node(args: argparse.Namespace) -> int:
             start=args.start,
             start_time=args.start_time,
             map_resolution=check_resolution(args.map_resolution),
+            localize=args.localize,
         )
         if args.start_time is not None:
             start_time_ns(args.start_time)  # a bad date fails here, before ROS starts
         env = gym.make("BubbleRob-v0", **kwargs)
     except (TypeError, ValueError) as error:
         return fail(str(error))
+    if args.localize and getattr(env.unwrapped, "laser_spec", None) is None:
+        env.close()
+        return fail("--localize needs the laser: leave laser_num_rays above 0")
     try:
         backend = load_backend(
             args.ros, namespace=args.namespace, master_timeout=args.master_timeout

@@ -31,6 +31,7 @@ from bubblerob_env.ros.live.controls import (
     ControlTopics,
     decode_control,
 )
+from bubblerob_env.ros.live.localizer import LOCALIZE_MODES, LiveLocalizer, LocalizerConfig
 from bubblerob_env.ros.live.wrapper import RosLivePublisher
 from bubblerob_env.ros.messages.distros import deserialize, get_distro, serialize, typestore
 from bubblerob_env.ros.messages.topics import Topics
@@ -56,6 +57,8 @@ class NodeConfig:
         start_time: Stamp of the first frame and ``/clock`` (Unix seconds or an ISO 8601 date);
             ``None``: the wall clock when the node starts.
         map_resolution: Metres per cell of the latched ``/map`` (0.005 to 1).
+        localize: Run the particle filter as AMCL (:mod:`~bubblerob_env.ros.live.localizer`):
+            ``"track"`` from each episode's start pose, ``"global"``; ``None``: off.
     """
 
     rate_factor: float = 1.0
@@ -65,9 +68,14 @@ class NodeConfig:
     start: str = "running"
     start_time: float | str | None = None
     map_resolution: float = DEFAULT_RESOLUTION
+    localize: str | None = None
 
     def __post_init__(self) -> None:
         check_resolution(self.map_resolution)
+        if self.localize is not None and self.localize not in LOCALIZE_MODES:
+            raise ValueError(
+                f"--localize must be one of {', '.join(LOCALIZE_MODES)}, got {self.localize!r}"
+            )
         if not (math.isfinite(self.rate_factor) and self.rate_factor >= 0):
             raise ValueError(
                 f"rate_factor must be >= 0 (0: as fast as possible), got {self.rate_factor}"
@@ -147,6 +155,7 @@ class SimNode:
             topics=live_topics,
             start_time=self.config.start_time,
             map_resolution=self.config.map_resolution,
+            static_map_to_odom=self.config.localize is None,
         )
         self.names = (controls or ControlTopics()).resolved(topics.namespace)
         resolved = live_topics.resolved()
@@ -170,6 +179,18 @@ class SimNode:
         self._step_done = backend.advertise(self.names["step_done"], "std_msgs/msg/Bool")
         self._state_out = backend.advertise(self.names["state"], "std_msgs/msg/Int32", True)
         self._subscribe_all()
+        self.localizer = self._make_localizer(live_topics)
+
+    def _make_localizer(self, topics: Topics) -> LiveLocalizer | None:
+        config = self.config
+        if config.localize is None:
+            return None
+        settings = LocalizerConfig(
+            mode=config.localize, seed=config.seed, map_resolution=config.map_resolution
+        )
+        return LiveLocalizer(
+            self.backend, topics, settings, warn=lambda t, r, d: self._reject(t, r, d)
+        )
 
     # -- wiring ---------------------------------------------------------------------------------
 
@@ -238,8 +259,17 @@ class SimNode:
     def _new_episode(self) -> None:
         seed = self.config.seed
         episode = self.publisher.episode
-        self.publisher.reset(seed=None if seed is None else seed + episode)
+        obs, info = self.publisher.reset(seed=None if seed is None else seed + episode)
         self.state.set_time(self.sim_time)
+        if self.localizer is not None:
+            self._localise(obs, info, reset=True)
+
+    def _localise(self, obs: Any, info: dict[str, Any], reset: bool = False) -> None:
+        localizer, stamp = self.localizer, self.publisher.stamp_ns
+        assert localizer is not None and stamp is not None
+        if reset:
+            localizer.reset(self.publisher, info, stamp)
+        localizer.step(obs, info, stamp, self.state.laser_on)
 
     def _handle(self, event: str, value: bool) -> None:
         before = self.sim_state
@@ -276,8 +306,10 @@ class SimNode:
         if self.first_step_at is None:
             self.first_step_at = time.perf_counter()
         action = self.state.action(self.sim_time)
-        _, _, terminated, truncated, _ = self.publisher.step(action)
+        obs, _, terminated, truncated, info = self.publisher.step(action)
         self.steps += 1
+        if self.localizer is not None:
+            self._localise(obs, info)
         if terminated or truncated:
             self._new_episode()
         self.state.set_time(self.sim_time)

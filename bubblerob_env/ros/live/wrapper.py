@@ -47,6 +47,8 @@ class RosLivePublisher(gym.Wrapper[Any, Any, Any, Any]):
         start_time: Stamp of the first frame, Unix seconds or an ISO 8601 date (see
             :func:`~bubblerob_env.ros.episodes.start_time_ns`); default: now.
         map_resolution: Metres per cell of ``/map`` (latched, published again at every reset).
+        static_map_to_odom: Publish the identity ``map -> odom`` on ``/tf_static``; False where
+            a localiser publishes ``map -> odom`` on ``/tf`` (``bubblerob node --localize``).
     """
 
     def __init__(
@@ -59,6 +61,7 @@ class RosLivePublisher(gym.Wrapper[Any, Any, Any, Any]):
         metadata: Mapping[str, Any] | None = None,
         start_time: float | str | None = None,
         map_resolution: float = DEFAULT_RESOLUTION,
+        static_map_to_odom: bool = True,
     ) -> None:
         super().__init__(env)
         self.topics = topics or Topics()
@@ -73,6 +76,8 @@ class RosLivePublisher(gym.Wrapper[Any, Any, Any, Any]):
         self._extra = list(sinks)
         for sink in self._extra:
             self.fanout.add_sink(sink)
+        for sink in (self.sink, *self._extra):
+            self.fanout.serializer(sink.distro).converter.static_map_to_odom = static_map_to_odom
         self.episode = 0
         self.start_time_ns = start_time_ns(start_time)
         """Stamp of the first frame (nanoseconds since the Unix epoch)."""
