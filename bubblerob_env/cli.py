@@ -30,6 +30,7 @@ __all__ = [
 _SUBCOMMAND_MODULES: tuple[tuple[str, str | None, tuple[str, ...]], ...] = (
     ("policies.teleop", None, ("teleop",)),
     ("bubblerob_env.ros.cli", "ros", ("record", "info", "replay", "recover", "node")),
+    ("bubblerob_env.ros.detect", "ros", ("detect",)),
     ("policies.bag_map", "ros", ("map",)),
     ("bubblerob_env.ros.localize", "ros", ("localize",)),
     ("policies.cli", "demo", ("evaluate", "demo")),
@@ -49,6 +50,7 @@ EXAMPLES = {
     "recover": "bubblerob recover bags/bubblerob_laser_seed0",
     "node": "bubblerob node --rate-factor 1 --namespace robot2",
     "map": "bubblerob map bags/bubblerob_laser_seed0 --out map.png",
+    "detect": "bubblerob detect bags/seen/bubblerob_laser_seed0 --json",
     "localize": "bubblerob localize bags/bubblerob_laser_seed0 --global --json",
     "teleop": "bubblerob teleop --start-pose 0 0 0 --record bags/drive",
 }
