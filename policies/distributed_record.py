@@ -54,7 +54,7 @@ def record_chunk(
     path: str,
     env_kwargs: dict[str, Any],
     recorder_kwargs: dict[str, Any],
-    topics: tuple[str, str],
+    topics: tuple[str, str, bool],
     env_id: str = "BubbleRob-v0",
 ) -> RecordChunk:
     """Record one episode per seed into the bag at ``path`` (the task's body).
@@ -158,7 +158,7 @@ def record_on_ray(
         chunks = plan or _plan(args, chunk_size, ray.cluster_resources().get("CPU", 1.0))
         names = [chunk_bag_name(args.policy, chunk) for chunk in chunks]
         task = ray.remote(num_cpus=1, max_retries=TASK_RETRIES)(record_chunk)
-        topics = (args.topics, args.namespace)
+        topics = (args.topics, args.namespace, not args.no_detections)
         refs = [
             task.remote(
                 args.policy,

@@ -53,6 +53,11 @@ def add_subcommands(subparsers: Any) -> None:
     )
     record.add_argument("--distro", default=None, help="jazzy (default) or humble; ros1: noetic")
     record.add_argument("--camera", action="store_true", help="record the camera (64x64)")
+    record.add_argument(
+        "--no-detections",
+        action="store_true",
+        help="with the camera: no /detections (the recogniser does not run; faster)",
+    )
     record.add_argument("--max-steps", type=int, default=None, help="step limit per episode")
     record.add_argument("--topics", choices=sorted(PRESETS), default="default", help="names")
     record.add_argument("--namespace", default="", help="prefix for the robot's topics")
@@ -180,7 +185,7 @@ def _record(args: argparse.Namespace) -> int:
             format=args.format,
             distro=args.distro,
             compression=args.compression,
-            topics=topics_preset(args.topics, args.namespace),
+            topics=topics_preset(args.topics, args.namespace, not args.no_detections),
             overwrite=args.overwrite,
             metadata={"policy": args.policy, "command": shlex.join(["bubblerob", *sys.argv[1:]])},
             per_episode=args.per_episode,

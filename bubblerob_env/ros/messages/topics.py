@@ -205,10 +205,15 @@ PRESETS: dict[str, Topics] = {
 """Named topic sets: ``default`` and ``vrep`` (the tutorials' Pioneer names)."""
 
 
-def topics_preset(name: str, namespace: str = "") -> Topics:
-    """The preset ``name`` (see :data:`PRESETS`), optionally under ``namespace``."""
+def topics_preset(name: str, namespace: str = "", detections: bool = True) -> Topics:
+    """The preset ``name`` (see :data:`PRESETS`), optionally under ``namespace``.
+
+    ``detections=False`` leaves ``/detections`` out (the recogniser does not run).
+    """
     try:
         preset = PRESETS[name]
     except KeyError:
         raise ValueError(f"unknown topic preset {name!r}; known: {sorted(PRESETS)}") from None
+    if not detections:
+        preset = preset.replace(detections=None)
     return dataclasses.replace(preset, namespace=namespace)
