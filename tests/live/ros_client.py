@@ -371,7 +371,8 @@ def cmd_localize(args):
     _, x, y, yaw = pose_tuple(truth.latest.header.stamp, truth.latest.pose.pose)
     target = [x + args.offset, y, yaw]
     send(initial_pose(frame, *target))
-    moved = amcl.wait(after_bad + 1)
+    amcl.wait(after_bad + 1)
+    time.sleep(1.0)  # poses published before the node took the initial pose come first
     return {
         "tracked": tracked,
         "truth": truths,
@@ -386,7 +387,7 @@ def cmd_localize(args):
             [t.header.frame_id, t.child_frame_id] for m in static.all for t in m.transforms
         ],
         "target": target,
-        "moved": pose_tuple(moved.header.stamp, moved.pose.pose),
+        "after": [pose_tuple(m.header.stamp, m.pose.pose) for m in list(amcl.all)[after_bad:]],
     }
 
 
@@ -416,8 +417,8 @@ def main():
     p = sub.add_parser("states")
     p.add_argument("--pause-seconds", type=float, default=0.5)
     p = sub.add_parser("localize")
-    p.add_argument("--linear", type=float, default=0.2)
-    p.add_argument("--angular", type=float, default=0.5)
+    p.add_argument("--linear", type=float, default=0.28)
+    p.add_argument("--angular", type=float, default=0.2)
     p.add_argument("--seconds", type=float, default=5.0)
     p.add_argument("--offset", type=float, default=0.5)
     p.add_argument("--frame-prefix", default="")

@@ -1,6 +1,6 @@
 """``bubblerob node --localize`` on a live ROS 1 graph (issue #27 item 4), seen by real rospy.
 
-The node drives a circle (a latched ``cmd_vel``, watchdog off) at 4x real time with drifting
+The node drives a 1.4 m circle (a latched ``cmd_vel``, watchdog off) at 5x real time with drifting
 odometry; a rospy client compares ``/amcl_pose`` with ``/base_pose_ground_truth`` at the same
 stamps (issue #27's targets: mean errors <= 0.05 m and 0.05 rad), checks ``/particlecloud`` and
 ``map -> odom`` on ``/tf`` (and its absence from ``/tf_static``), sends three malformed
@@ -20,10 +20,13 @@ from live_helpers import requires_ros, wait_for
 
 pytestmark = requires_ros
 
+# A circle of 1.4 m radius around the empty arena's centre: raw odometry drifts 0.4-0.9 m within
+# 15-25 s of it (measured offline over start delays; 3.5 s at 5x real time here), and no wall or
+# episode end interrupts it.
 NODE_ARGS = (
-    "--localize", "--rate-factor", "4", "--watchdog", "0", "--seed", "3",
+    "--localize", "--rate-factor", "5", "--watchdog", "0", "--seed", "3", "--max-steps", "4000",
     "--env", "odometry_noise=0.15", "--env", "num_obstacles=[0,0]",
-    "--env", "start_pose=[0,0,0]",
+    "--env", "start_pose=[0,-1.4,0]",
 )  # fmt: skip
 
 
@@ -41,7 +44,7 @@ def tracking_errors(got: dict) -> tuple[np.ndarray, np.ndarray]:
 @pytest.fixture(scope="module")
 def localised(master, start_node):
     node = start_node(*NODE_ARGS)
-    got = master.client("localize", "--seconds", "5", timeout=60)
+    got = master.client("localize", "--seconds", "3.5", timeout=60)
     return node, got
 
 
@@ -69,9 +72,9 @@ def test_particle_cloud_and_map_to_odom_on_tf_not_tf_static(localised):
 
 def test_initialpose_moves_the_estimate_and_malformed_ones_are_ignored(localised):
     node, got = localised
-    _, x, y, _ = got["moved"]
-    tx, ty, _ = got["target"]
-    assert math.hypot(x - tx, y - ty) <= 0.15, (got["moved"], got["target"])
+    tx, ty, _ = got["target"]  # 0.5 m off the truth
+    distances = [math.hypot(x - tx, y - ty) for _, x, y, _ in got["after"]]
+    assert min(distances) <= 0.15, (got["after"], got["target"])
     assert node.alive(), node.output
     assert wait_for(lambda: "initialpose" in node.output, 5), node.output
     for reason in ("undecodable", "non-finite", "initial poses must be in 'map'"):

@@ -365,6 +365,72 @@ def cmd_tutorialloop(node, args):
     }
 
 
+def pose_list(stamp, pose):
+    p, q = pose.position, pose.orientation
+    yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+    return [stamp_ns(stamp), p.x, p.y, yaw]
+
+
+def initial_pose(frame, x, y, yaw, variance=0.01):
+    from geometry_msgs.msg import PoseWithCovarianceStamped
+
+    msg = PoseWithCovarianceStamped()
+    msg.header.frame_id = frame
+    msg.pose.pose.position.x, msg.pose.pose.position.y = x, y
+    msg.pose.pose.orientation.z, msg.pose.pose.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
+    covariance = [0.0] * 36
+    covariance[0] = covariance[7] = covariance[35] = variance
+    msg.pose.covariance = covariance
+    return msg
+
+
+def cmd_localize(node, args):
+    """Drive a circle; /amcl_pose and the truth; malformed /initialpose, then a valid one."""
+    from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped
+
+    amcl = Counter(node, ns(args, "amcl_pose"), PoseWithCovarianceStamped, keep=True)
+    truth = Counter(node, ns(args, "base_pose_ground_truth"), Odometry, keep=True)
+    odom = Counter(node, ns(args, "odom"), Odometry)
+    cloud = Counter(node, ns(args, "particlecloud"), PoseArray)
+    tf = Counter(node, "/tf", TFMessage, keep=True)
+    static = Counter(node, "/tf_static", TFMessage, keep=True, qos=LATCHED)
+    for c in (amcl, truth, cloud):
+        matched(node, c)
+    init = publisher(node, ns(args, "initialpose"), PoseWithCovarianceStamped)
+    publisher(node, ns(args, "cmd_vel"), Twist).publish(twist(args.linear, args.angular))
+    time.sleep(args.seconds)
+    with amcl.cond, truth.cond:
+        tracked = [pose_list(m.header.stamp, m.pose.pose) for m in amcl.all]
+        truths = [pose_list(m.header.stamp, m.pose.pose) for m in truth.all]
+    last_odom = pose_list(odom.latest.header.stamp, odom.latest.pose.pose)
+    init.publish(b"\x00\x01\x00\x00\x01")  # CDR too short for the type
+    init.publish(initial_pose("map", float("nan"), 0.0, 0.0))
+    init.publish(initial_pose("base_link", 0.0, 0.0, 0.0))
+    time.sleep(1.0)
+    after_bad = amcl.count
+    _, x, y, yaw = pose_list(truth.latest.header.stamp, truth.latest.pose.pose)
+    target = [x + args.offset, y, yaw]
+    init.publish(initial_pose("map", *target))
+    amcl.wait(after_bad + 1)
+    time.sleep(1.0)  # poses published before the node took the initial pose come first
+    return {
+        "tracked": tracked,
+        "truth": truths,
+        "odom_last": last_odom,
+        "clouds": cloud.count,
+        "cloud_size": len(cloud.latest.poses),
+        "cloud_frame": cloud.latest.header.frame_id,
+        "amcl_frame": amcl.all[0].header.frame_id,
+        "amcl_covariance": list(amcl.all[-1].pose.covariance),
+        "tf_map_odom": sum(1 for m in tf.all for t in m.transforms if t.header.frame_id == "map"),
+        "tf_static": [
+            [t.header.frame_id, t.child_frame_id] for m in static.all for t in m.transforms
+        ],
+        "target": target,
+        "after": [pose_list(m.header.stamp, m.pose.pose) for m in list(amcl.all)[after_bad:]],
+    }
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--ns", default="")
@@ -395,6 +461,11 @@ def main():
     p = sub.add_parser("topics")
     p.add_argument("--seconds", type=float, default=15.0)
     p.add_argument("--expect", nargs="*", default=[])
+    p = sub.add_parser("localize")
+    p.add_argument("--linear", type=float, default=0.28)
+    p.add_argument("--angular", type=float, default=0.2)
+    p.add_argument("--seconds", type=float, default=5.0)
+    p.add_argument("--offset", type=float, default=0.5)
     p = sub.add_parser("tutorialloop")
     p.add_argument("--steps", type=int, default=600)
     p.add_argument("--forward", type=float, default=8.0)
