@@ -31,6 +31,10 @@ import numpy as np
 
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
 from bubblerob_env.ros import RosBagRecorder
+from bubblerob_env.ros.messages.topics import Topics
+
+NO_DETECTIONS = False
+"""``--no-detections``: camera recordings leave ``/detections`` out (no recogniser runs)."""
 
 RECORDINGS = (
     ("mcap", "zstd"),
@@ -63,6 +67,7 @@ def measure_pair(
         format=fmt,
         compression=compression,
         overwrite=True,
+        topics=Topics(detections=None) if NO_DETECTIONS else None,
     )
     plain.reset(seed=0)
     recording.reset(seed=0)
@@ -88,7 +93,12 @@ def main() -> None:
     parser.add_argument("--block", type=int, default=500, help="steps per turn (default 500)")
     parser.add_argument("--out", type=Path, default=None, help="where bags go (default: temp)")
     parser.add_argument("--quick", action="store_true", help="smoke test: 60 steps")
+    parser.add_argument(
+        "--no-detections", action="store_true", help="camera rows without /detections"
+    )
     args = parser.parse_args()
+    global NO_DETECTIONS  # noqa: PLW0603 - one switch for every pair measured
+    NO_DETECTIONS = args.no_detections
     if args.quick:
         args.steps, args.block = 80, 20
     out = args.out or Path(tempfile.mkdtemp(prefix="record_speed_"))
