@@ -50,7 +50,7 @@ EXAMPLES = {
     "recover": "bubblerob recover bags/bubblerob_laser_seed0",
     "node": "bubblerob node --rate-factor 1 --namespace robot2",
     "map": "bubblerob map bags/bubblerob_laser_seed0 --out map.png",
-    "detect": "bubblerob detect bags/seen/bubblerob_laser_seed0 --json",
+    "detect": "bubblerob detect bags/seen/bubblerob_random_seed9100 --json",
     "localize": "bubblerob localize bags/bubblerob_laser_seed0 --global --json",
     "teleop": "bubblerob teleop --start-pose 0 0 0 --record bags/drive",
 }
