@@ -24,7 +24,7 @@ DEMO_DEBS := libegl1 libegl-mesa0 libgl1-mesa-dri ffmpeg
 TEST_DEBS := xvfb xauth tmux python3-rosbag python3-rospy python3-rosmaster python3-rostopic python3-roslaunch python3-std-msgs python3-rosgraph-msgs python3-geometry-msgs python3-sensor-msgs python3-nav-msgs python3-tf2-msgs
 # What each step's stamp is the sha256 of: when one changes, the step runs again.
 PIP_INPUTS := pyproject.toml
-TF2_INPUTS := pyproject.toml bubblerob_env/ros/live/ros2_msgs.py bubblerob_env/ros/messages/msg/tf2_msgs/TFMessage.msg
+TF2_INPUTS := pyproject.toml bubblerob_env/ros/live/ros2_msgs.py bubblerob_env/ros/messages/msg/tf2_msgs/TFMessage.msg $(wildcard bubblerob_env/ros/messages/msg/vision_msgs/*.msg)
 TORCH_REPORT := $(VENV)/.torch-install-report.json
 
 .PHONY: help demo test demo-setup test-setup debs-demo debs-test venv venv-demo kernel venv-all torch \
@@ -164,9 +164,9 @@ venv-ros2:
 
 tf2-msgs: venv-ros2
 	@if sha256sum --check --status $(VENV_ROS2)/.stamp-tf2-msgs 2>/dev/null; then
-	  echo "setup: $(VENV_ROS2) has tf2_msgs, built from these $(TF2_INPUTS): skipped"
+	  echo "setup: $(VENV_ROS2) has tf2_msgs and vision_msgs, built from these $(TF2_INPUTS): skipped"
 	else
-	  echo "setup: building tf2_msgs into $(VENV_ROS2)"
+	  echo "setup: building tf2_msgs and vision_msgs into $(VENV_ROS2)"
 	  $(VENV_ROS2)/bin/python -m bubblerob_env.ros.live.ros2_msgs
 	  sha256sum $(TF2_INPUTS) > $(VENV_ROS2)/.stamp-tf2-msgs
 	fi

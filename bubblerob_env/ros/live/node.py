@@ -161,7 +161,9 @@ class SimNode:
         resolved = live_topics.resolved()
         self._sensor_topics = {
             "laser": [resolved[k] for k in ("scan",) if k in resolved],
-            "camera": [resolved[k] for k in ("image", "camera_info") if k in resolved],
+            "camera": [
+                resolved[k] for k in ("image", "camera_info", "detections") if k in resolved
+            ],
         }
         self.state = ControlState(base.drive, self.config.watchdog)  # type: ignore[attr-defined]
         self.sync = self.config.sync

@@ -44,6 +44,19 @@ PACKAGES: dict[str, dict[str, Any]] = {
         "messages": ["TFMessage"],
         "depends": ["geometry_msgs", "std_msgs", "builtin_interfaces"],
     },
+    # /detections' Detection2DArray and its parts (vision_msgs 4.1.1, Jazzy's release; no wheel).
+    "vision_msgs": {
+        "messages": [
+            "Point2D",
+            "Pose2D",
+            "BoundingBox2D",
+            "ObjectHypothesis",
+            "ObjectHypothesisWithPose",
+            "Detection2D",
+            "Detection2DArray",
+        ],
+        "depends": ["geometry_msgs", "std_msgs", "builtin_interfaces"],
+    },
 }
 """Packages this module can build: their messages and the message packages they depend on."""
 MSG_DIR = Path(__file__).resolve().parent.parent / "messages" / "msg"
