@@ -23,6 +23,7 @@ import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
+from bubblerob_env.cli import env_kwargs_json
 from bubblerob_env.mapping import (
     DEFAULT_RESOLUTION,
     OCCUPIED,
@@ -75,9 +76,17 @@ def _check_episode(path: str | Path, episode: int, count: int) -> None:
 
 
 def map_bag(
-    path: str | Path, episode: int = 0, resolution: float = DEFAULT_RESOLUTION
+    path: str | Path,
+    episode: int = 0,
+    resolution: float = DEFAULT_RESOLUTION,
+    env_id: str | None = None,
+    env_kwargs: dict[str, Any] | None = None,
 ) -> MapResult:
     """Map episode ``episode`` (its index in the bag) of the bag at ``path``.
+
+    The ground truth is the bag's ``/map`` at ``resolution`` if it has one, else the episode
+    re-simulated: its env made from the metadata's id and kwargs, or from ``env_id`` and
+    ``env_kwargs`` where given (a bag of an env registered under another name here).
 
     Raises:
         MapError: The bag holds no episode metadata or no episode ``episode``, or its metadata
@@ -116,9 +125,16 @@ def map_bag(
                     laser_offset = pose
                 elif transform.child_frame_id.endswith("base_link"):
                     poses[_stamp(transform.header)] = pose
-    truth, source = (
-        (recorded, "the bag's /map") if recorded is not None else (_simulated(meta, resolution), "")
-    )
+    if recorded is None:
+        if env_id is not None or env_kwargs is not None:
+            meta = {
+                **meta,
+                "env_id": env_id or meta.get("env_id"),
+                "env_kwargs": meta.get("env_kwargs") if env_kwargs is None else env_kwargs,
+            }
+        truth, source = _simulated(meta, resolution), ""
+    else:
+        truth, source = recorded, "the bag's /map"
     mapper = LogOddsMapper(truth)
     used = 0
     for stamp, scan in scans:
@@ -156,8 +172,9 @@ def _simulated(meta: dict[str, Any], resolution: float) -> Grid:
         env = gym.make(meta["env_id"], **kwargs)
     except (gym.error.Error, KeyError, TypeError, ValueError) as error:
         raise MapError(
-            f"episode {meta.get('episode')}'s env cannot be made again from the bag's metadata "
-            f"({type(error).__name__}: {error})"
+            f"episode {meta.get('episode')}'s env {meta.get('env_id')!r} cannot be made again "
+            f"for the ground truth ({type(error).__name__}: {error}); --env ID and "
+            "--env-kwargs JSON name one that can"
         ) from None
     try:
         env.reset(seed=meta.get("seed"), options=meta.get("options"))
@@ -196,7 +213,7 @@ def _run(args: argparse.Namespace) -> int:
         print(f"bubblerob map: {error}", file=sys.stderr)
         return 2
     try:
-        result = map_bag(args.bag, args.episode, resolution)
+        result = map_bag(args.bag, args.episode, resolution, args.env, args.env_kwargs)
     except (OSError, MapError) as error:
         print(f"bubblerob map: {error}", file=sys.stderr)
         return 2
@@ -227,4 +244,17 @@ def add_subcommands(subparsers: Any) -> None:
     parser.add_argument("--episode", type=int, default=0, help="index of the episode to map")
     parser.add_argument("--resolution", default=DEFAULT_RESOLUTION, help="m/cell, 0.005 to 1")
     parser.add_argument("--out", default="map.png", help="PNG to write")
+    parser.add_argument(
+        "--env",
+        metavar="ID",
+        help="where the ground truth is re-simulated (the bag has no /map at --resolution): "
+        "make this env id instead of the one the episode's metadata names",
+    )
+    parser.add_argument(
+        "--env-kwargs",
+        type=env_kwargs_json,
+        metavar="JSON",
+        help="with the re-simulation: these gym.make keyword arguments instead of the "
+        "metadata's, e.g. '{\"arena_size\": 3.0}'",
+    )
     parser.set_defaults(handler=_run)

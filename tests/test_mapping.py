@@ -115,6 +115,46 @@ def test_map_of_a_bag_without_map_re_simulates_the_episode(tmp_path):
     assert with_map.iou == without.iou
 
 
+def test_map_re_simulates_with_the_env_the_user_names(tmp_path):
+    # A bag without /map of an env with a 3 m arena: the truth re-simulated from the metadata is
+    # that arena (the oracle: a fresh env of the same kwargs and seed); --env-kwargs another
+    # arena gives that one's; an env that cannot be made is one line, exit 2.
+    import subprocess
+    import sys
+
+    pytest.importorskip("rosbags")
+    from bubblerob_env.ros import RosBagRecorder
+    from bubblerob_env.ros.messages.topics import Topics
+    from policies.bag_map import map_bag
+
+    env = gym.make("BubbleRob-v0", arena_size=3.0, max_episode_steps=5)
+    with RosBagRecorder(env, tmp_path / "bag", topics=Topics(map=None)) as recorder:
+        recorder.reset(seed=4)
+        for _ in range(5):
+            recorder.step(np.array([0.0, 0.5], dtype=np.float32))
+
+    def truth(**kwargs: object) -> Grid:
+        oracle = gym.make("BubbleRob-v0", **kwargs)
+        oracle.reset(seed=4)
+        return episode_grid(oracle, 0.05)
+
+    own, other = (
+        map_bag(tmp_path / "bag"),
+        map_bag(tmp_path / "bag", env_kwargs={"arena_size": 4.0}),
+    )
+    assert np.array_equal(own.truth.data, truth(arena_size=3.0).data)
+    assert np.array_equal(other.truth.data, truth(arena_size=4.0).data)
+    assert own.truth.data.shape != other.truth.data.shape
+    result = subprocess.run(
+        [sys.executable, "-m", "bubblerob_env.cli", "map", str(tmp_path / "bag"),
+         "--env", "Nope-v0", "--out", str(tmp_path / "m.png")],
+        capture_output=True, text=True, timeout=120, check=False,
+    )  # fmt: skip
+    assert result.returncode == 2 and "Traceback" not in result.stderr, result.stderr
+    (line,) = result.stderr.strip().splitlines()
+    assert "'Nope-v0'" in line and "--env ID" in line, line
+
+
 @pytest.mark.parametrize("value", ["0", "abc"])
 def test_map_with_a_bad_resolution_is_one_line(tmp_path, value):
     import subprocess
