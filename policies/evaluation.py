@@ -28,6 +28,7 @@ __all__ = [
     "run_episode",
     "step_bar",
     "summarize",
+    "summarize_records",
     "write_video",
 ]
 
@@ -148,6 +149,21 @@ def summarize(policy_name: str, episodes: Sequence[EpisodeStats]) -> EvalResult:
             }
             for e in episodes
         ),
+    )
+
+
+def summarize_records(policy_name: str, records: Sequence[dict[str, Any]]) -> EvalResult:
+    """The table row of ``evaluate --per-episode``'s records (speed weighted by length)."""
+    lengths = np.array([r["length"] for r in records], dtype=float)
+    return EvalResult(
+        policy=policy_name,
+        episodes=len(records),
+        success_rate=float(np.mean([r["succeeded"] for r in records])),
+        collision_rate=float(np.mean([r["collided"] for r in records])),
+        mean_speed_fraction=float(np.dot([r["speed"] for r in records], lengths) / lengths.sum()),
+        mean_length=float(lengths.mean()),
+        mean_return=float(np.mean([r["return"] for r in records])),
+        per_episode=tuple(records),
     )
 
 
