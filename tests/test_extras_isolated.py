@@ -30,7 +30,7 @@ SITE = Path(sysconfig.get_paths()["purelib"])
 # Subcommands by the extra README installs for them (None: the env alone, no extra).
 SUBCOMMANDS = {
     None: ("teleop",),
-    "ros": ("record", "info", "replay", "recover", "node", "map", "localize"),
+    "ros": ("record", "info", "replay", "recover", "node", "map", "localize", "detect"),
     "demo": ("evaluate", "demo"),
     "train": ("train",),
 }
