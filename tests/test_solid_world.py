@@ -12,6 +12,9 @@ through the obstacles the sampler rejects for crowding it, so each test draws a 
 layout with the robot parked in a corner (where, with ``start_clearance=0``, it can reject no
 obstacle) and keeps only the poses whose reset reproduces that layout.
 
+Each test runs for BubbleRob and for the Pioneer 3-DX (``Oracle``: each robot's dimensions, typed
+in from its MJCF), the Pioneer on fewer arenas (CI time): the same oracle, a second footprint.
+
 Three bugs these tests found have their own tests: a wheel sank into cylinder obstacles (MuJoCo
 4's multi-contact CCD, now off in the robot's MJCF), a touch that began and ended inside one
 control step was not reported (the env now checks contacts after every physics step), and the
@@ -76,6 +79,75 @@ TOUCH = 0.001  # footprints overlapping this much are certainly in contact, metr
 Shape = tuple  # ("circle", x, y, r) or ("box", x, y, yaw, half_x, half_y)
 
 
+@dataclass(frozen=True)
+class Oracle:
+    """What the oracle knows of one robot and its arena: numbers typed in from the MJCF.
+
+    The chassis is a circle (BubbleRob's sphere) or an upright box (the Pioneer's), given in
+    base_link's frame; the two wheels are boxes (radius along x, half-width along y) at +-wheel_y.
+    """
+
+    env_id: str
+    arena_size: float
+    wall_half_thickness: float
+    height: float  # obstacles and walls stand from z = 0 to this
+    base_height: float  # base_link above the floor at rest (the wheel radius)
+    chassis: Shape  # ("circle", x, y, r) or ("box", x, y, 0.0, half_x, half_y), base_link frame
+    chassis_z: float
+    wheel_y: float
+    wheel_radius: float
+    wheel_half_width: float
+    bound: float  # a circle about base_link that holds every part's footprint
+    laser_xyz: tuple[float, float, float]
+    laser_angles: tuple[float, float, int, int]  # ray i at first + span * i / divisions; rays
+    laser_range_max: float
+    proximity_xyz: tuple[float, float, float]  # looks along base_link's +x
+    proximity_range_max: float
+    camera_xyz: tuple[float, float, float]  # looks along base_link's +x, up is +z
+    camera_fovy: float
+    top_speed: float  # m/s
+    seeds: dict[str, int]  # arenas per campaign
+    # The nearest an obstacle can be to the camera at a reset: base_link keeps the bounding
+    # circle clear of it (the Pioneer's camera is 0.13 m nearer its circle's edge than its centre).
+    near_camera: float
+
+    @property
+    def half(self) -> float:
+        return self.arena_size / 2
+
+    @property
+    def corner(self) -> tuple[float, float, float]:
+        limit = self.half - self.bound - 0.01
+        return (limit, limit, 0.0)
+
+    @property
+    def gap(self) -> float:
+        """Obstacles keep this far from each other and the walls (arena.py docs)."""
+        return 2 * self.bound
+
+    @property
+    def penetration_tol(self) -> float:
+        """As PENETRATION_TOL, at this robot's top speed."""
+        return self.top_speed * 0.0125 + 0.001
+
+    @property
+    def side_reach(self) -> float:
+        """Half the chassis' width: drives off-centre by up to this much hit the chassis."""
+        return self.chassis[3] if self.chassis[0] == "circle" else self.chassis[5]
+
+    def angles(self) -> NDArray[np.float64]:
+        first, span, divisions, count = self.laser_angles
+        return first + span * np.arange(count) / divisions
+
+    def pose(self, x: float, y: float, yaw: float) -> Pose:
+        """The robot at rest on the floor at (x, y, yaw)."""
+        return Pose.planar(x, y, yaw, self.base_height)
+
+    def count(self, campaign: str, bubblerob: int) -> int:
+        """A threshold set for BubbleRob's arenas, scaled to this robot's."""
+        return bubblerob * self.seeds[campaign] // BUBBLEROB.seeds[campaign]
+
+
 # --- 2D footprints ---------------------------------------------------------------------------
 
 
@@ -123,17 +195,22 @@ class Pose:
         return math.atan2(self.rotation[1][0], self.rotation[0][0])
 
 
-def robot_footprint(pose: Pose) -> list[Shape]:
-    """The robot's parts seen from above: the chassis sphere's disc and the wheels' rectangles.
+def robot_footprint(pose: Pose, robot: Oracle | None = None) -> list[Shape]:
+    """The robot's parts seen from above: the chassis (disc or box) and the wheels' rectangles.
 
-    The caster (inside the chassis disc) and the laser housing (on top, inside it too) add nothing.
+    The caster and the laser housing (inside the chassis seen from above) add nothing.
     """
-    cx, cy, _ = pose.point(CHASSIS_XYZ)
+    robot = robot or BUBBLEROB
+    chassis = robot.chassis
+    cx, cy, _ = pose.point((chassis[1], chassis[2], robot.chassis_z))
     yaw = pose.heading
-    parts: list[Shape] = [("circle", cx, cy, CHASSIS_RADIUS)]
+    if chassis[0] == "circle":
+        parts: list[Shape] = [("circle", cx, cy, chassis[3])]
+    else:
+        parts = [("box", cx, cy, yaw, chassis[4], chassis[5])]
     for side in (1.0, -1.0):
-        wx, wy, _ = pose.point((0.0, side * WHEEL_Y, 0.0))
-        parts.append(("box", wx, wy, yaw, WHEEL_RADIUS, WHEEL_HALF_WIDTH))
+        wx, wy, _ = pose.point((0.0, side * robot.wheel_y, 0.0))
+        parts.append(("box", wx, wy, yaw, robot.wheel_radius, robot.wheel_half_width))
     return parts
 
 
@@ -226,9 +303,13 @@ def _slab(
 
 
 def cast_rays(
-    origin: Sequence[float], directions: NDArray[np.float64], prisms: Sequence[Shape], floor: bool
+    origin: Sequence[float],
+    directions: NDArray[np.float64],
+    prisms: Sequence[Shape],
+    floor: bool,
+    height: float = HEIGHT,
 ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-    """Distance along each unit ray to the first prism (z from 0 to HEIGHT) or the floor.
+    """Distance along each unit ray to the first prism (z from 0 to ``height``) or the floor.
 
     Returns the distances (inf: no hit) and what was hit: the prism's index, ``len(prisms)`` for
     the floor, -1 for nothing.
@@ -237,7 +318,7 @@ def cast_rays(
     dx, dy, dz = directions[:, 0], directions[:, 1], directions[:, 2]
     best = np.full(len(directions), np.inf)
     what = np.full(len(directions), -1, dtype=np.int64)
-    z_enter, z_leave = _slab(oz, dz, 0.0, HEIGHT)
+    z_enter, z_leave = _slab(oz, dz, 0.0, height)
     for index, shape in enumerate(prisms):
         if shape[0] == "circle":
             _, cx, cy, r = shape
@@ -275,8 +356,8 @@ def cast_rays(
     return best, what
 
 
-def wall_prisms(half: float = HALF) -> list[Shape]:
-    t, outer = WALL_HALF_THICKNESS, half + 2 * WALL_HALF_THICKNESS
+def wall_prisms(half: float = HALF, thickness: float = WALL_HALF_THICKNESS) -> list[Shape]:
+    t, outer = thickness, half + 2 * thickness
     return [
         ("box", 0.0, half + t, 0.0, outer, t),
         ("box", 0.0, -half - t, 0.0, outer, t),
@@ -293,13 +374,68 @@ def horizontal_rays(pose: Pose, angles: NDArray[np.float64]) -> NDArray[np.float
 
 # --- Envs, layouts and start poses -----------------------------------------------------------
 
-CORNER = (HALF - ROBOT_BOUND - 0.01, HALF - ROBOT_BOUND - 0.01, 0.0)
+BUBBLEROB = Oracle(
+    env_id="BubbleRob-v0",
+    arena_size=ARENA_SIZE,
+    wall_half_thickness=WALL_HALF_THICKNESS,
+    height=HEIGHT,
+    base_height=BASE_HEIGHT,
+    chassis=("circle", CHASSIS_XYZ[0], CHASSIS_XYZ[1], CHASSIS_RADIUS),
+    chassis_z=CHASSIS_XYZ[2],
+    wheel_y=WHEEL_Y,
+    wheel_radius=WHEEL_RADIUS,
+    wheel_half_width=WHEEL_HALF_WIDTH,
+    bound=ROBOT_BOUND,
+    laser_xyz=LASER_XYZ,
+    laser_angles=(-math.pi, 2 * math.pi, LASER_RAYS, LASER_RAYS),
+    laser_range_max=LASER_RANGE_MAX,
+    proximity_xyz=PROXIMITY_XYZ,
+    proximity_range_max=PROXIMITY_RANGE_MAX,
+    camera_xyz=CAMERA_XYZ,
+    camera_fovy=CAMERA_FOVY,
+    top_speed=0.4,
+    seeds={"layouts": 500, "drives": 200, "pushes": 20, "twin": 6, "sensors": 50, "camera": 60},
+    near_camera=0.10,
+)
+# The Pioneer 3-DX, from assets/pioneer_p3dx.xml and pioneer_arena.xml: a box chassis 0.455 x
+# 0.26 m centred 4 cm behind the axle, 0.0975 m wheels 0.051 m wide at y = +-0.165, a 10 m arena
+# with 0.5 m walls and obstacles, a 901-ray 180-degree laser.
+PIONEER = Oracle(
+    env_id="PioneerP3DX-v0",
+    arena_size=10.0,
+    wall_half_thickness=0.1,
+    height=0.5,
+    base_height=0.0975,
+    chassis=("box", -0.04, 0.0, 0.0, 0.2275, 0.13),
+    chassis_z=0.051,
+    wheel_y=0.165,
+    wheel_radius=0.0975,
+    wheel_half_width=0.0255,
+    bound=0.30,
+    laser_xyz=(0.10, 0.0, 0.2125),
+    laser_angles=(-math.pi / 2, math.pi, 900, 901),
+    laser_range_max=50.0,
+    proximity_xyz=(0.1875, 0.0, 0.05),
+    proximity_range_max=4.0,
+    camera_xyz=(0.17, 0.0, 0.1625),
+    camera_fovy=math.radians(60.0),
+    top_speed=1.2,
+    seeds={"layouts": 100, "drives": 8, "pushes": 2, "twin": 1, "sensors": 8, "camera": 8},
+    near_camera=0.15,
+)
+ROBOTS = [pytest.param(BUBBLEROB, id="bubblerob"), pytest.param(PIONEER, id="pioneer")]
+CORNER = BUBBLEROB.corner
 
 
-def make_env(**kwargs):
+def make_env(robot: Oracle | None = None, **kwargs):
     """An env whose start pose the tests set; ``start_clearance=0`` lets them start near things."""
+    robot = robot or BUBBLEROB
     return gym.make(
-        "BubbleRob-v0", action_type="twist", start_pose=CORNER, start_clearance=0.0, **kwargs
+        robot.env_id,
+        action_type="twist",
+        start_pose=robot.corner,
+        start_clearance=0.0,
+        **kwargs,
     )
 
 
@@ -309,19 +445,19 @@ def reset_at(env, seed: int, pose: tuple[float, float, float]):
     return env.reset(seed=seed)
 
 
-def reference_layout(env, seed: int):
+def reference_layout(env, seed: int, robot: Oracle | None = None):
     """The seed's layout with the robot in a corner, which rejects no obstacle.
 
     Obstacle centres stay ``GAP`` plus their bounding radius inside the walls, so they are at
     least sqrt(2) * (0.1 m + bounding radius) from CORNER, more than the sampler's keep-out.
     """
-    reset_at(env, seed, CORNER)
+    reset_at(env, seed, (robot or BUBBLEROB).corner)
     return env.unwrapped.layout
 
 
-def free_of(parts: list[Shape], shapes: Sequence[Shape], margin: float) -> bool:
+def free_of(parts: list[Shape], shapes: Sequence[Shape], margin: float, half: float = HALF) -> bool:
     """Whether the footprint keeps ``margin`` from the walls and every shape."""
-    if min(wall_separation(part) for part in parts) < margin:
+    if min(wall_separation(part, half) for part in parts) < margin:
         return False
     return all(footprint_separation(parts, shape) >= margin for shape in shapes)
 
@@ -335,45 +471,60 @@ def assert_pose_is(info: dict, pose: tuple[float, float, float]) -> None:
 # --- The oracle's own assumptions ------------------------------------------------------------
 
 
-def test_oracle_dimensions_match_the_compiled_robot_and_arena():
-    env = make_env()
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_oracle_dimensions_match_the_compiled_robot_and_arena(robot):
+    env = make_env(robot)
     try:
         env.reset(seed=0)
         model = env.unwrapped.model
-        chassis = model.geom("chassis")
-        assert chassis.size[0] == pytest.approx(CHASSIS_RADIUS)
-        assert tuple(chassis.pos) == pytest.approx(CHASSIS_XYZ)
+        chassis, kind = model.geom("chassis"), robot.chassis[0]
+        assert model.geom_type[chassis.id] == (
+            mujoco.mjtGeom.mjGEOM_SPHERE if kind == "circle" else mujoco.mjtGeom.mjGEOM_BOX
+        )
+        size = (robot.chassis[3],) if kind == "circle" else robot.chassis[4:]
+        assert tuple(chassis.size[: len(size)]) == pytest.approx(size)
+        chassis_xyz = (robot.chassis[1], robot.chassis[2], robot.chassis_z)
+        assert tuple(chassis.pos) == pytest.approx(chassis_xyz)
         for name, side in (("left_wheel", 1), ("right_wheel", -1)):
             wheel = model.geom(name)
-            assert tuple(wheel.size[:2]) == pytest.approx((WHEEL_RADIUS, WHEEL_HALF_WIDTH))
-            assert tuple(model.body(name).pos) == pytest.approx((0.0, side * WHEEL_Y, 0.0))
-        assert model.body("base_link").pos[2] == pytest.approx(BASE_HEIGHT)
-        for name, xyz in (("laser_link", LASER_XYZ), ("proximity_ray", PROXIMITY_XYZ)):
+            assert tuple(wheel.size[:2]) == pytest.approx(
+                (robot.wheel_radius, robot.wheel_half_width)
+            )
+            assert tuple(model.body(name).pos) == pytest.approx((0.0, side * robot.wheel_y, 0.0))
+        assert model.body("base_link").pos[2] == pytest.approx(robot.base_height)
+        for name, xyz in (("laser_link", robot.laser_xyz), ("proximity_ray", robot.proximity_xyz)):
             assert tuple(model.site(name).pos) == pytest.approx(xyz)
-        assert tuple(model.camera("front_camera").pos) == pytest.approx(CAMERA_XYZ)
+        assert tuple(model.camera("front_camera").pos) == pytest.approx(robot.camera_xyz)
         assert math.radians(model.cam_fovy[model.camera("front_camera").id]) == pytest.approx(
-            CAMERA_FOVY
+            robot.camera_fovy
         )
-        # The caster and the laser housing stay inside the chassis disc seen from above.
+        # The caster and the laser housing stay inside the chassis seen from above.
+        parts = robot_footprint(robot.pose(0.0, 0.0, 0.0), robot)
         for name in ("caster", "laser_housing"):
             geom = model.geom(name)
-            reach = math.hypot(geom.pos[0] - CHASSIS_XYZ[0], geom.pos[1]) + geom.size[0]
-            assert reach < CHASSIS_RADIUS
-        # Every part's footprint fits in ROBOT_BOUND.
-        parts = robot_footprint(Pose.planar(0.0, 0.0, 0.0))
-        assert all(math.hypot(*corner) <= ROBOT_BOUND for corner in box_corners(parts[1]))
-        assert math.hypot(*CHASSIS_XYZ[:2]) + CHASSIS_RADIUS <= ROBOT_BOUND
-        assert env.unwrapped.arena_size == ARENA_SIZE
-        # The walls: inner faces at +-HALF, HEIGHT tall, as wall_prisms() has them.
+            assert shape_sdf(parts[0], geom.pos[0], geom.pos[1]) + geom.size[0] < 0.0, name
+        # Every part's footprint fits in the robot's bound.
+        for part in parts:
+            if part[0] == "circle":
+                assert math.hypot(part[1], part[2]) + part[3] <= robot.bound
+            else:
+                assert all(math.hypot(*corner) <= robot.bound for corner in box_corners(part))
+        assert env.unwrapped.arena_size == robot.arena_size
+        # The walls: inner faces at +-half, height tall, as wall_prisms() has them.
+        prisms = wall_prisms(robot.half, robot.wall_half_thickness)
         for name, prism in zip(
-            ("wall_north", "wall_south", "wall_east", "wall_west"), wall_prisms(), strict=True
+            ("wall_north", "wall_south", "wall_east", "wall_west"), prisms, strict=True
         ):
             wall = model.geom(name)
-            assert tuple(wall.pos) == pytest.approx((prism[1], prism[2], HEIGHT / 2))
-            assert tuple(wall.size) == pytest.approx((prism[4], prism[5], HEIGHT / 2))
-        assert env.unwrapped.laser_spec.num_rays == LASER_RAYS
-        assert env.unwrapped.laser_spec.range_max == LASER_RANGE_MAX
-        assert env.unwrapped.proximity_spec.range_max == PROXIMITY_RANGE_MAX
+            assert tuple(wall.pos) == pytest.approx((prism[1], prism[2], robot.height / 2))
+            assert tuple(wall.size) == pytest.approx((prism[4], prism[5], robot.height / 2))
+        assert model.geom("obstacle_box_0").size[2] == pytest.approx(robot.height / 2)
+        spec = env.unwrapped.laser_spec
+        assert spec.num_rays == robot.laser_angles[3]
+        np.testing.assert_allclose(spec.angles(), robot.angles(), atol=1e-12)
+        assert spec.range_max == robot.laser_range_max
+        assert env.unwrapped.proximity_spec.range_max == robot.proximity_range_max
+        assert env.unwrapped.drive.max_linear_speed == pytest.approx(robot.top_speed, rel=1e-3)
     finally:
         env.close()
 
@@ -461,40 +612,47 @@ def test_the_soak_scripts_oracle_agrees_with_this_one():
 # --- The sampler's promises ------------------------------------------------------------------
 
 
-def test_layouts_keep_the_gaps_the_sampler_promises():
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_layouts_keep_the_gaps_the_sampler_promises(robot):
     """arena.py: obstacles keep a robot diameter from the walls and from each other."""
-    env = make_env()
+    env = make_env(robot)
     problems = []
     obstacles = 0
+    seeds = robot.seeds["layouts"]
+    gap = robot.gap
     try:
-        for seed in range(500):
-            shapes = [obstacle_shape(o) for o in reference_layout(env, seed).obstacles]
+        for seed in range(seeds):
+            shapes = [obstacle_shape(o) for o in reference_layout(env, seed, robot).obstacles]
             obstacles += len(shapes)
             for i, shape in enumerate(shapes):
-                if wall_separation(shape) < GAP - 1e-9:
+                if wall_separation(shape, robot.half) < gap - 1e-9:
                     problems.append(
-                        f"seed {seed}: obstacle {i} {wall_separation(shape):.3f} m from a wall"
+                        f"seed {seed}: obstacle {i} "
+                        f"{wall_separation(shape, robot.half):.3f} m from a wall"
                     )
                 for j in range(i):
-                    if separation(shape, shapes[j]) < GAP - 1e-9:
-                        problems.append(f"seed {seed}: obstacles {j} and {i} closer than {GAP} m")
+                    if separation(shape, shapes[j]) < gap - 1e-9:
+                        problems.append(f"seed {seed}: obstacles {j} and {i} closer than {gap} m")
     finally:
         env.close()
     assert not problems, f"{len(problems)} problems in {obstacles} obstacles:\n" + "\n".join(
         problems[:20]
     )
-    assert obstacles >= 500 * 4
+    assert obstacles >= seeds * 4
 
 
 # --- 1. Driving straight at every obstacle ---------------------------------------------------
 
 
-def approaches(shape: Shape, rng: np.random.Generator) -> Iterator[tuple[str, float, float]]:
+def approaches(
+    shape: Shape, rng: np.random.Generator, robot: Oracle
+) -> Iterator[tuple[str, float, float]]:
     """``(name, heading, lateral offset of the path from the centre)`` of drives at a shape."""
     if shape[0] == "circle":
         radius = shape[3]
         yield "cylinder head-on", float(rng.uniform(-math.pi, math.pi)), 0.0
-        offset = float(rng.uniform(0.3, 0.8) * (radius + CHASSIS_RADIUS) * rng.choice([-1, 1]))
+        reach = radius + robot.side_reach
+        offset = float(rng.uniform(0.3, 0.8) * reach * rng.choice([-1, 1]))
         yield "cylinder off-centre", float(rng.uniform(-math.pi, math.pi)), offset
         return
     _, _, _, yaw, hx, hy = shape
@@ -512,7 +670,12 @@ def approaches(shape: Shape, rng: np.random.Generator) -> Iterator[tuple[str, fl
 
 
 def plan_drive(
-    target: Shape, others: Sequence[Shape], heading: float, offset: float, start_gap: float
+    target: Shape,
+    others: Sequence[Shape],
+    heading: float,
+    offset: float,
+    start_gap: float,
+    robot: Oracle,
 ) -> tuple[tuple[float, float, float], float] | None:
     """A start pose for a straight drive at ``target``, and the travel to first contact.
 
@@ -522,12 +685,12 @@ def plan_drive(
     """
     ux, uy = math.cos(heading), math.sin(heading)
     nx, ny = -uy, ux
-    reach = bounding_radius(target) + ROBOT_BOUND + start_gap
+    reach = bounding_radius(target) + robot.bound + start_gap
     back = math.sqrt(max(reach * reach - offset * offset, 0.0))
     x0, y0 = target[1] + offset * nx - back * ux, target[2] + offset * ny - back * uy
 
     def parts_at(travel: float) -> list[Shape]:
-        return robot_footprint(Pose.planar(x0 + travel * ux, y0 + travel * uy, heading))
+        return robot_footprint(robot.pose(x0 + travel * ux, y0 + travel * uy, heading), robot)
 
     # Conservative advancement: the separation shrinks at most as fast as the robot moves.
     travel = 0.0
@@ -539,7 +702,7 @@ def plan_drive(
         if travel > 2 * reach:
             raise AssertionError(f"approach {heading:.3f} / {offset:.3f} misses {target}")
     for sample in np.arange(0.0, travel + 0.03, 0.01):
-        if not free_of(parts_at(float(sample)), others, PATH_MARGIN + 0.005):
+        if not free_of(parts_at(float(sample)), others, PATH_MARGIN + 0.005, robot.half):
             return None
     return (x0, y0, heading), travel
 
@@ -574,6 +737,7 @@ class Drive:
 class Campaign:
     """Every drive of a run, and the candidates left out."""
 
+    robot: Oracle = field(default_factory=lambda: BUBBLEROB)
     candidates: int = 0
     not_free: int = 0
     layout_changed: int = 0
@@ -606,7 +770,8 @@ class Campaign:
             f"{self.collisions} collided, {self.skipped} skipped ({self.not_free} path not free, "
             f"{self.layout_changed} layout changed), {sum(d.steps for d in self.drives)} steps, "
             f"max penetration {1000 * deepest.max_depth:.2f} mm (tolerance "
-            f"{1000 * PENETRATION_TOL:.1f} mm; {deepest.label} step {deepest.max_depth_step}), "
+            f"{1000 * self.robot.penetration_tol:.1f} mm; {deepest.label} step "
+            f"{deepest.max_depth_step}), "
             f"max wheel in a cylinder {1000 * wheel:.2f} mm, {self.seconds:.1f} s"
         )
 
@@ -621,6 +786,7 @@ def robot_depths(parts: list[Shape], shape: Shape) -> tuple[float, float]:
 def run_drives(
     seeds: range,
     *,
+    robot: Oracle = BUBBLEROB,
     terminate: bool = True,
     max_steps: int = 60,
     kinds: tuple[str, ...] | None = None,
@@ -632,25 +798,27 @@ def run_drives(
     ``max_steps``. ``twin``: also step an env with one physics step per control step in lockstep
     and record the control steps in which the oracle saw a touch that was not reported.
     """
-    campaign = Campaign()
+    campaign = Campaign(robot)
     began = time.perf_counter()
-    env = make_env(terminate_on_collision=terminate)
+    env = make_env(robot, terminate_on_collision=terminate)
     fine = None
     if twin:
-        fine = make_env(terminate_on_collision=False, control_timestep=0.0125, physics_substeps=1)
+        fine = make_env(
+            robot, terminate_on_collision=False, control_timestep=0.0125, physics_substeps=1
+        )
     rng = np.random.default_rng(1234)
     try:
         for seed in seeds:
-            layout = reference_layout(env, seed)
+            layout = reference_layout(env, seed, robot)
             shapes = [obstacle_shape(o) for o in layout.obstacles]
             for index, target in enumerate(shapes):
                 others = shapes[:index] + shapes[index + 1 :]
-                for name, heading, offset in approaches(target, rng):
+                for name, heading, offset in approaches(target, rng, robot):
                     start_gap = float(rng.uniform(0.005, 0.15))
                     if kinds is not None and name not in kinds:
                         continue
                     campaign.candidates += 1
-                    plan = plan_drive(target, others, heading, offset, start_gap)
+                    plan = plan_drive(target, others, heading, offset, start_gap, robot)
                     if plan is None:
                         campaign.not_free += 1
                         continue
@@ -664,7 +832,7 @@ def run_drives(
                         reset_at(fine, seed, start)
                     drive = Drive(seed, index, name, start, contact_travel)
                     campaign.drives.append(drive)
-                    _drive(env, fine, drive, target, others, terminate, max_steps)
+                    _drive(env, fine, drive, (target, others), terminate, max_steps, robot)
     finally:
         env.close()
         if fine is not None:
@@ -673,7 +841,8 @@ def run_drives(
     return campaign
 
 
-def _drive(env, fine, drive: Drive, target, others, terminate: bool, max_steps: int) -> None:
+def _drive(env, fine, drive: Drive, shapes, terminate: bool, max_steps: int, robot) -> None:  # noqa: C901
+    target, others = shapes
     action = np.array([1.0, 0.0], dtype=np.float32)
     model, data = env.unwrapped.model, env.unwrapped.data
     soak = _load_soak()
@@ -685,7 +854,7 @@ def _drive(env, fine, drive: Drive, target, others, terminate: bool, max_steps: 
             for _ in range(4):
                 _, _, _, _, fine_info = fine.step(action)
                 pose = Pose.from_qpos(fine_info["position"], fine_info["quaternion_wxyz"])
-                touched |= -footprint_separation(robot_footprint(pose), target) >= TOUCH
+                touched |= -footprint_separation(robot_footprint(pose, robot), target) >= TOUCH
         _, _, terminated, truncated, info = env.step(action)
         drive.steps = step
         if fine is not None:
@@ -693,17 +862,17 @@ def _drive(env, fine, drive: Drive, target, others, terminate: bool, max_steps: 
             if touched and not info["collision"] and drive.first_collision is None:
                 drive.missed_touches.append(step)
         pose = Pose.from_qpos(info["position"], info["quaternion_wxyz"])
-        parts = robot_footprint(pose)
+        parts = robot_footprint(pose, robot)
         x, y, _ = pose.position
         depth, wheel = robot_depths(parts, target)
         for shape in others:
-            if math.hypot(x - shape[1], y - shape[2]) < ROBOT_BOUND + bounding_radius(shape):
+            if math.hypot(x - shape[1], y - shape[2]) < robot.bound + bounding_radius(shape):
                 depth = max(depth, robot_depths(parts, shape)[0])
-        depth = max(depth, -min(wall_separation(part) for part in parts))
+        depth = max(depth, -min(wall_separation(part, robot.half) for part in parts))
         if depth > drive.max_depth:
             drive.max_depth, drive.max_depth_step = depth, step
         drive.wheel_in_cylinder = max(drive.wheel_in_cylinder, wheel)
-        if depth > PENETRATION_TOL:
+        if depth > robot.penetration_tol:
             drive.problems.append(f"{1000 * depth:.1f} mm deep at step {step}")
         if shape_sdf(target, x, y) <= 0.0:
             drive.problems.append(f"centre inside the obstacle at step {step}")
@@ -716,7 +885,7 @@ def _drive(env, fine, drive: Drive, target, others, terminate: bool, max_steps: 
             # The env reports a contact seen after any physics step: check all the step's poses.
             poses = [Pose.from_qpos(*p) for p in soak.substep_poses(env, state)]
             assert np.allclose(poses[-1].position, pose.position, atol=1e-9), drive.label
-            gap = min(footprint_separation(robot_footprint(p), target) for p in poses)
+            gap = min(footprint_separation(robot_footprint(p, robot), target) for p in poses)
             if gap > CONTACT_TOL:
                 travel = math.hypot(x - drive.start[0], y - drive.start[1])
                 drive.problems.append(
@@ -736,44 +905,51 @@ def _drive(env, fine, drive: Drive, target, others, terminate: bool, max_steps: 
         )
 
 
-def test_driving_at_every_obstacle_of_200_arenas_collides_before_entering_it():
-    campaign = run_drives(range(200))
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_driving_at_every_obstacle_of_many_arenas_collides_before_entering_it(robot):
+    """BubbleRob: 200 arenas; the Pioneer: 12."""
+    campaign = run_drives(range(robot.seeds["drives"]), robot=robot)
     print(campaign.summary())
     message = campaign.summary() + "\n" + "\n".join(campaign.problems[:20])
     assert not campaign.problems, message
     assert campaign.collisions == len(campaign.drives), message
     assert len(campaign.drives) >= 0.9 * campaign.candidates, message
-    assert len(campaign.drives) >= 3000, message
-    assert campaign.deepest().max_depth <= PENETRATION_TOL, message
+    assert len(campaign.drives) >= robot.count("drives", 3000), message
+    assert campaign.deepest().max_depth <= robot.penetration_tol, message
 
 
-@pytest.fixture(scope="module")
-def pushes() -> Campaign:
+@pytest.fixture(scope="module", params=ROBOTS)
+def pushes(request) -> Campaign:
     """Drives that keep pushing for 2.5 s after touching (termination off)."""
-    return run_drives(range(20), terminate=False, max_steps=50)
+    robot = request.param
+    return run_drives(range(robot.seeds["pushes"]), robot=robot, terminate=False, max_steps=50)
 
 
 def test_pushing_into_obstacles_never_sinks_in_or_gets_through(pushes):
     print(pushes.summary())
     message = pushes.summary() + "\n" + "\n".join(pushes.problems[:20])
     assert not pushes.problems, message
-    assert pushes.collisions == len(pushes.drives) >= 300, message
+    least = pushes.robot.count("pushes", 300)
+    assert pushes.collisions == len(pushes.drives) >= least, message
 
 
 def test_wheels_do_not_sink_into_cylinders(pushes):
     wheel = [d for d in pushes.drives if d.approach.startswith("cylinder")]
-    if len(wheel) < 100:
+    if len(wheel) < pushes.robot.count("pushes", 100):
         pytest.fail(f"only {len(wheel)} drives at cylinders")
     worst = max(wheel, key=lambda d: d.wheel_in_cylinder)
-    assert worst.wheel_in_cylinder <= PENETRATION_TOL, (
+    assert worst.wheel_in_cylinder <= pushes.robot.penetration_tol, (
         f"wheel {1000 * worst.wheel_in_cylinder:.1f} mm inside the cylinder: {worst.label}"
     )
 
 
-def test_a_touch_between_control_steps_is_reported():
-    campaign = run_drives(range(6), terminate=False, max_steps=30, twin=True)
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_a_touch_between_control_steps_is_reported(robot):
+    campaign = run_drives(
+        range(robot.seeds["twin"]), robot=robot, terminate=False, max_steps=30, twin=True
+    )
     missed = [d for d in campaign.drives if d.missed_touches]
-    if len(campaign.drives) < 60:
+    if len(campaign.drives) < robot.count("twin", 60):
         pytest.fail(f"only {len(campaign.drives)} drives")
     assert not missed, (
         f"{len(missed)} of {len(campaign.drives)} drives touched their obstacle (>= "
@@ -786,10 +962,10 @@ def test_a_touch_between_control_steps_is_reported():
 
 
 def sensor_poses(
-    shapes: Sequence[Shape], rng: np.random.Generator
+    shapes: Sequence[Shape], rng: np.random.Generator, robot: Oracle
 ) -> Iterator[tuple[float, float, float]]:
     """Random poses, poses near an obstacle looking roughly at it, and poses facing a wall."""
-    limit = HALF - ROBOT_BOUND - 0.005
+    limit = robot.half - robot.bound - 0.005
     for _ in range(4):
         x, y = (float(v) for v in rng.uniform(-limit, limit, size=2))
         yield x, y, float(rng.uniform(-math.pi, math.pi))
@@ -798,22 +974,24 @@ def sensor_poses(
             break
         target = shapes[int(rng.integers(len(shapes)))]
         bearing = float(rng.uniform(-math.pi, math.pi))
-        reach = bounding_radius(target) + ROBOT_BOUND + float(rng.uniform(0.002, 0.3))
+        reach = bounding_radius(target) + robot.bound + float(rng.uniform(0.002, 0.3))
         x, y = target[1] - reach * math.cos(bearing), target[2] - reach * math.sin(bearing)
         yield x, y, bearing + float(rng.uniform(-0.3, 0.3))
     side = int(rng.integers(4))
     normal = side * math.pi / 2  # outward normal of the wall on that side
-    depth = HALF - ROBOT_BOUND - float(rng.uniform(0.002, 0.4))
+    depth = robot.half - robot.bound - float(rng.uniform(0.002, 0.4))
     along = float(rng.uniform(-limit, limit))
     x = depth * math.cos(normal) - along * math.sin(normal)
     y = depth * math.sin(normal) + along * math.cos(normal)
     yield x, y, normal + float(rng.uniform(-0.5, 0.5))
 
 
-def test_laser_and_proximity_match_the_ray_oracle():
-    env = make_env()
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_laser_and_proximity_match_the_ray_oracle(robot):  # noqa: C901
+    env = make_env(robot)
     rng = np.random.default_rng(99)
-    angles = -math.pi + 2 * math.pi * np.arange(LASER_RAYS) / LASER_RAYS
+    angles = robot.angles()
+    half, height, range_max = robot.half, robot.height, robot.laser_range_max
     laser_errors: list[float] = []
     proximity_errors: list[tuple[float, float, str]] = []
     counts = dict.fromkeys(
@@ -821,27 +999,30 @@ def test_laser_and_proximity_match_the_ray_oracle():
     )
     proximity_hits = 0
     try:
-        for seed in range(50):
-            reference = [obstacle_shape(o) for o in reference_layout(env, seed).obstacles]
-            for pose_xyyaw in sensor_poses(reference, rng):
-                if not free_of(robot_footprint(Pose.planar(*pose_xyyaw)), reference, 0.001):
+        for seed in range(robot.seeds["sensors"]):
+            layout = reference_layout(env, seed, robot)
+            reference = [obstacle_shape(o) for o in layout.obstacles]
+            for pose_xyyaw in sensor_poses(reference, rng, robot):
+                parts = robot_footprint(robot.pose(*pose_xyyaw), robot)
+                if not free_of(parts, reference, 0.001, half):
                     counts["not free"] += 1
                     continue
                 obs, info = reset_at(env, seed, pose_xyyaw)
                 assert_pose_is(info, pose_xyyaw)
                 counts["poses"] += 1
                 shapes = [obstacle_shape(o) for o in env.unwrapped.layout.obstacles]
-                pose = Pose.planar(*pose_xyyaw)
-                assert free_of(robot_footprint(pose), shapes, 0.0), f"seed {seed} {pose_xyyaw}"
-                prisms = shapes + wall_prisms()
-                origin = pose.point(LASER_XYZ)
+                pose = robot.pose(*pose_xyyaw)
+                parts = robot_footprint(pose, robot)
+                assert free_of(parts, shapes, 0.0, half), f"seed {seed} {pose_xyyaw}"
+                prisms = shapes + wall_prisms(half, robot.wall_half_thickness)
+                origin = pose.point(robot.laser_xyz)
                 runs = [
-                    cast_rays(origin, horizontal_rays(pose, angles + delta), prisms, floor=False)
+                    cast_rays(origin, horizontal_rays(pose, angles + delta), prisms, False, height)
                     for delta in (0.0, -1e-6, 1e-6)
                 ]
-                expected = [np.minimum(t, LASER_RANGE_MAX) for t, _ in runs]
+                expected = [np.minimum(t, range_max) for t, _ in runs]
                 spread = np.max(expected, axis=0) - np.min(expected, axis=0)
-                clear = (spread < RAY_TOL) & (np.abs(expected[0] - LASER_RANGE_MAX) > 1e-4)
+                clear = (spread < RAY_TOL) & (np.abs(expected[0] - range_max) > 1e-4)
                 counts["ambiguous"] += int(np.sum(~clear))
                 counts["rays"] += int(np.sum(clear))
                 what = runs[0][1][clear]
@@ -852,10 +1033,10 @@ def test_laser_and_proximity_match_the_ray_oracle():
                 laser_errors.append(float(error.max(initial=0.0)))
                 # The proximity ray sees everything but its own body, the floor included.
                 t, _ = cast_rays(
-                    pose.point(PROXIMITY_XYZ), np.array([pose.axis(0)]), prisms, floor=True
+                    pose.point(robot.proximity_xyz), np.array([pose.axis(0)]), prisms, True, height
                 )
-                reading = min(float(t[0]), PROXIMITY_RANGE_MAX)
-                proximity_hits += reading < PROXIMITY_RANGE_MAX
+                reading = min(float(t[0]), robot.proximity_range_max)
+                proximity_hits += reading < robot.proximity_range_max
                 proximity_errors.append(
                     (
                         abs(float(obs["proximity"][0]) - reading),
@@ -875,8 +1056,10 @@ def test_laser_and_proximity_match_the_ray_oracle():
     print(message)
     assert max(laser_errors) <= RAY_TOL, message
     assert worst_proximity[0] <= RAY_TOL, message
-    assert counts["poses"] >= 300 and counts["ambiguous"] <= 0.001 * counts["rays"], message
-    assert counts["obstacle"] >= 10_000 and proximity_hits >= 80, message
+    poses = robot.count("sensors", 300)
+    assert counts["poses"] >= poses and counts["ambiguous"] <= 0.001 * counts["rays"], message
+    assert counts["obstacle"] >= robot.count("sensors", 10_000), message
+    assert proximity_hits >= robot.count("sensors", 80), message
 
 
 # --- 3. The camera against the same ray caster -----------------------------------------------
@@ -896,32 +1079,39 @@ def classify_pixels(image: NDArray[np.uint8]) -> NDArray[np.int64]:
 
 
 def oracle_image(
-    pose: Pose, shapes: Sequence[Shape], du: float = 0.0, dv: float = 0.0
+    pose: Pose,
+    shapes: Sequence[Shape],
+    du: float = 0.0,
+    dv: float = 0.0,
+    robot: Oracle | None = None,
 ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
     """What each pixel's ray hits first (0-3 as in _CLASSES), and that point's depth.
 
     A pinhole with vertical field of view CAMERA_FOVY, square pixels, row 0 at the top; the ray
     goes through the pixel's centre shifted by (du, dv) pixels.
     """
+    robot = robot or BUBBLEROB
     n = CAMERA_SIZE
-    scale = math.tan(CAMERA_FOVY / 2)
+    scale = math.tan(robot.camera_fovy / 2)
     cols, rows = np.meshgrid(np.arange(n) + 0.5 + du, np.arange(n) + 0.5 + dv)
     right = (cols / n * 2 - 1) * scale
     up = (1 - rows / n * 2) * scale
     local = np.stack([np.ones_like(right), -right, up], axis=-1).reshape(-1, 3)
     local /= np.linalg.norm(local, axis=1, keepdims=True)
     world = local @ np.array(pose.rotation).T
-    prisms = [*shapes, *wall_prisms()]
-    t, what = cast_rays(pose.point(CAMERA_XYZ), world, prisms, floor=True)
+    prisms = [*shapes, *wall_prisms(robot.half, robot.wall_half_thickness)]
+    t, what = cast_rays(pose.point(robot.camera_xyz), world, prisms, True, robot.height)
     kind = np.select([what < 0, what < len(shapes), what < len(prisms)], [3, 0, 1], 2)
     return kind.reshape(n, n), (t * local[:, 0]).reshape(n, n)
 
 
-def oracle_classes(pose: Pose, shapes: Sequence[Shape]) -> tuple[NDArray[np.int64], float]:
+def oracle_classes(
+    pose: Pose, shapes: Sequence[Shape], robot: Oracle | None = None
+) -> tuple[NDArray[np.int64], float]:
     """Per pixel the class its whole footprint agrees on (-1 where it is an edge), nearest depth."""
-    kind, depth = oracle_image(pose, shapes)
+    kind, depth = oracle_image(pose, shapes, robot=robot)
     for du, dv in ((-0.45, 0.0), (0.45, 0.0), (0.0, -0.45), (0.0, 0.45)):
-        kind = np.where(oracle_image(pose, shapes, du, dv)[0] == kind, kind, -1)
+        kind = np.where(oracle_image(pose, shapes, du, dv, robot)[0] == kind, kind, -1)
     return kind, float(depth.min())
 
 
@@ -935,38 +1125,41 @@ def surface_distance(shape: Shape, angle: float) -> float:
 
 
 def camera_pose_facing(
-    target: Shape, bearing: float, distance: float
+    target: Shape, bearing: float, distance: float, robot: Oracle | None = None
 ) -> tuple[float, float, float]:
     """A start pose looking along ``bearing`` at ``target``'s centre, ``distance`` from its surface
     (measured from the camera)."""
-    back = surface_distance(target, bearing + math.pi) + distance + CAMERA_XYZ[0]
+    camera_x = (robot or BUBBLEROB).camera_xyz[0]
+    back = surface_distance(target, bearing + math.pi) + distance + camera_x
     return target[1] - back * math.cos(bearing), target[2] - back * math.sin(bearing), bearing
 
 
-def test_camera_sees_what_the_ray_oracle_sees():
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_camera_sees_what_the_ray_oracle_sees(robot):  # noqa: C901
     """Every pixel away from an edge shows the material its ray hits first; an obstacle 0.4 m
     straight ahead fills the image centre."""
-    env = make_env(camera=True)
+    env = make_env(robot, camera=True)
     rng = np.random.default_rng(7)
-    limit = HALF - ROBOT_BOUND - 0.005
+    limit = robot.half - robot.bound - 0.005
     images = ahead = too_close = not_free = 0
     compared = mismatched = 0
     worst = (0.0, "")
     try:
-        for seed in range(60):
-            reference = reference_layout(env, seed)
+        for seed in range(robot.seeds["camera"]):
+            reference = reference_layout(env, seed, robot)
             shapes = [obstacle_shape(o) for o in reference.obstacles]
             target = shapes[int(rng.integers(len(shapes)))]
-            facing = camera_pose_facing(target, float(rng.uniform(-math.pi, math.pi)), 0.4)
+            bearing = float(rng.uniform(-math.pi, math.pi))
+            facing = camera_pose_facing(target, bearing, 0.4, robot)
             x, y = (float(v) for v in rng.uniform(-limit, limit, size=2))
             for start in (facing, (x, y, float(rng.uniform(-math.pi, math.pi)))):
-                pose = Pose.planar(*start)
-                if not free_of(robot_footprint(pose), shapes, 0.001):
+                pose = robot.pose(*start)
+                if not free_of(robot_footprint(pose, robot), shapes, 0.001, robot.half):
                     not_free += 1
                     continue
                 obs, _ = reset_at(env, seed, start)
                 layout = [obstacle_shape(o) for o in env.unwrapped.layout.obstacles]
-                expected, nearest = oracle_classes(pose, layout)
+                expected, nearest = oracle_classes(pose, layout, robot)
                 too_close += nearest < 0.15
                 got = classify_pixels(obs["camera"])
                 clean = expected >= 0
@@ -991,28 +1184,30 @@ def test_camera_sees_what_the_ray_oracle_sees():
         f"pixels differ, worst image {100 * worst[0]:.2f}% ({worst[1]})"
     )
     print(message)
-    assert images >= 80 and ahead >= 40, message
+    assert images >= robot.count("camera", 80) and ahead >= robot.count("camera", 40), message
     assert mismatched <= 0.002 * compared, message
     assert worst[0] <= 0.01, message
 
 
-def test_camera_sees_an_obstacle_10_cm_ahead():
-    env = make_env(camera=True)
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_camera_sees_an_obstacle_10_cm_ahead(robot):
+    """BubbleRob: 10 cm; the Pioneer: 15 cm (nearer, its reset would drop the obstacle)."""
+    env = make_env(robot, camera=True)
     try:
         seed = 3
-        shapes = [obstacle_shape(o) for o in reference_layout(env, seed).obstacles]
+        shapes = [obstacle_shape(o) for o in reference_layout(env, seed, robot).obstacles]
         target = next(s for s in shapes if s[0] == "circle")
-        start = camera_pose_facing(target, 0.0, 0.10)
+        start = camera_pose_facing(target, 0.0, robot.near_camera, robot)
         obs, _ = reset_at(env, seed, start)
-        expected, nearest = oracle_classes(Pose.planar(*start), shapes)
+        expected, nearest = oracle_classes(robot.pose(*start), shapes, robot)
         centre = (slice(24, 40), slice(24, 40))
         if not (
-            free_of(robot_footprint(Pose.planar(*start)), shapes, 0.001)
+            free_of(robot_footprint(robot.pose(*start), robot), shapes, 0.001, robot.half)
             and [obstacle_shape(o) for o in env.unwrapped.layout.obstacles] == shapes
-            and abs(nearest - 0.10) < 1e-3
+            and abs(nearest - robot.near_camera) < 1e-3
             and np.all(expected[centre] == 0)
         ):
-            pytest.fail(f"seed {seed}: no free pose with the obstacle 10 cm ahead")
+            pytest.fail(f"seed {seed}: no free pose with the obstacle {robot.near_camera} m ahead")
         got = classify_pixels(obs["camera"])
         shown = "".join(sorted({_CLASSES[c] for c in got[centre].ravel()}))
         assert np.all(got[centre] == 0), f"image centre shows {shown!r}, not the obstacle"
