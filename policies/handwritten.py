@@ -97,7 +97,11 @@ class LaserPolicy(_Policy):
     For candidate headings within +-``max_heading`` it measures how far a corridor as wide as the
     robot (plus ``margin``) stays free, scores each heading by that free length (up to ``horizon``)
     minus a preference for going straight, steers towards the best one and slows down as the free
-    length ahead shrinks. With no free heading at all it turns in place towards the open side.
+    length ahead shrinks (from ``slow_down[0] + slow_down[1]`` metres to ``slow_down[0]``). With
+    no heading free for ``boxed_in`` metres it turns in place towards the open side.
+
+    The defaults are BubbleRob's (0.11 m, 0.4 m/s, a 360-degree scan); :meth:`for_robot` scales
+    them to another robot's size, speed and scan.
     """
 
     name = "laser"
@@ -112,6 +116,8 @@ class LaserPolicy(_Policy):
         max_heading: float = math.radians(100),
         turn_gain: float = 3.0,
         straight_preference: float = 0.25,
+        boxed_in: float = 0.2,
+        slow_down: tuple[float, float] = (0.15, 0.6),
     ) -> None:
         super().__init__(mapper)
         self.laser_spec = laser_spec
@@ -119,6 +125,8 @@ class LaserPolicy(_Policy):
         self.horizon = horizon
         self.turn_gain = turn_gain
         self.straight_preference = straight_preference
+        self.boxed_in = boxed_in
+        self.slow_down = slow_down
         self._ray_angles = laser_spec.angles()
         self._headings = np.linspace(-max_heading, max_heading, 41)
         # Per (heading, ray): the ray's angle relative to the heading, its cosine and |sine|
@@ -126,6 +134,33 @@ class LaserPolicy(_Policy):
         self._relative = self._ray_angles[None, :] - self._headings[:, None]
         self._cos_relative = np.cos(self._relative)
         self._abs_sin_relative = np.abs(np.sin(self._relative))
+
+    @classmethod
+    def for_robot(
+        cls, mapper: ActionMapper, laser_spec: LaserSpec, robot_radius: float
+    ) -> LaserPolicy:
+        """The law scaled to a robot: widths by its radius, look-ahead by its top speed.
+
+        A scan narrower than a full circle limits the headings to 10 degrees inside its edges
+        (a corridor at its edge would have rays on one side only). BubbleRob gets the defaults
+        exactly (both scales are 1).
+        """
+        size = robot_radius / 0.11  # BubbleRob's radius
+        speed = mapper.linear_limit / 0.4  # and top speed
+        max_heading = math.radians(100)
+        if not laser_spec.full_circle:
+            max_heading = min(max_heading, laser_spec.fov / 2 - math.radians(10))
+        return cls(
+            mapper,
+            laser_spec,
+            half_width=robot_radius,
+            margin=0.06 * size,
+            horizon=1.5 * speed,
+            max_heading=max_heading,
+            straight_preference=0.25 * speed,
+            boxed_in=0.2 * size,
+            slow_down=(0.15 * size, 0.6 * speed),
+        )
 
     def free_length(self, ranges: NDArray[np.float32]) -> NDArray[np.float64]:
         """Free corridor length (m) along each candidate heading."""
@@ -143,11 +178,12 @@ class LaserPolicy(_Policy):
         heading = float(self._headings[best])
         max_linear = self.mapper.linear_limit
         angular = float(np.clip(self.turn_gain * heading, -3.0, 3.0))
-        if free[best] < 0.2:  # boxed in: turn in place towards the side with more room
+        if free[best] < self.boxed_in:  # boxed in: turn in place towards the side with more room
             side = 1.0 if free[self._headings > 0].max() >= free[self._headings < 0].max() else -1.0
             return self.mapper.from_twist(0.0, 2.0 * side), memory
         ahead = free[len(free) // 2]
-        speed = max_linear * float(np.clip((min(ahead, free[best]) - 0.15) / 0.6, 0.15, 1.0))
+        stop, ramp = self.slow_down
+        speed = max_linear * float(np.clip((min(ahead, free[best]) - stop) / ramp, 0.15, 1.0))
         speed *= max(0.2, math.cos(heading))
         return self.mapper.from_twist(speed, angular), memory
 

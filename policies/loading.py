@@ -161,7 +161,7 @@ def _builtin(name: str, base: BubbleRobEnv, space: gym.spaces.Dict | None, seed:
     if name == "reactive":
         return ReactivePolicy(mapper, base.proximity_spec.trigger_distance, dt=base.dt)
     if name == "laser" and base.laser_spec is not None:
-        return LaserPolicy(mapper, base.laser_spec)
+        return LaserPolicy.for_robot(mapper, base.laser_spec, base.robot.radius)
     return RandomPolicy(mapper, seed)
 
 

@@ -142,3 +142,21 @@ def test_the_native_batch_runs_pioneers_bit_for_bit():
 def test_a_bad_robot_name_is_one_line():
     with pytest.raises(ValueError, match=r"robot must be one of \['bubblerob', 'pioneer_p3dx'\]"):
         gym.make("BubbleRob-v0", robot="pioneer")
+
+
+def test_the_laser_policy_reads_the_180_degree_scan_and_drives_clear():
+    from policies import load_policy
+    from policies.evaluation import evaluate
+
+    env = gym.make(ENV_ID)
+    policy = load_policy("laser", env)
+    # Its headings stay 10 degrees inside the scan's edges; its corridor is the robot's width.
+    assert np.max(np.abs(policy._headings)) == pytest.approx(math.radians(80))
+    assert policy.half_width > PIONEER_P3DX.radius
+    env.close()
+    # Short episodes on validation seeds: none collides (the full figures: README, BENCHMARKS).
+    result = evaluate(
+        "laser", episodes=2, seed=2000, env_id=ENV_ID, env_kwargs={"max_episode_steps": 200}
+    )
+    assert result.success_rate == 1.0 and result.mean_length == 200
+    assert result.mean_speed_fraction > 0.2
