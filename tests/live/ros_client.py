@@ -358,7 +358,13 @@ def cmd_localize(args):
         wait_connected(c.sub)
     send = raw_pose_publisher(ns(args, "initialpose"))
     publisher(ns(args, "cmd_vel"), Twist, latch=True).publish(twist(args.linear, args.angular))
-    time.sleep(args.seconds)
+    # Simulated seconds of driving, however fast the node runs on a loaded machine.
+    start = truth.wait(truth.count + 1).header.stamp.to_nsec()
+    deadline = time.monotonic() + 60.0
+    while truth.latest.header.stamp.to_nsec() - start < args.sim_seconds * 1e9:
+        if time.monotonic() > deadline:
+            raise SystemExit("the node did not simulate --sim-seconds within 60 s")
+        time.sleep(0.05)
     tracked = [pose_tuple(m.header.stamp, m.pose.pose) for m in list(amcl.all)]
     truths = [pose_tuple(m.header.stamp, m.pose.pose) for m in list(truth.all)]
     last_odom = pose_tuple(odom.latest.header.stamp, odom.latest.pose.pose)
@@ -419,7 +425,7 @@ def main():
     p = sub.add_parser("localize")
     p.add_argument("--linear", type=float, default=0.28)
     p.add_argument("--angular", type=float, default=0.2)
-    p.add_argument("--seconds", type=float, default=5.0)
+    p.add_argument("--sim-seconds", type=float, default=17.0)
     p.add_argument("--offset", type=float, default=0.5)
     p.add_argument("--frame-prefix", default="")
     p = sub.add_parser("tutorialloop")

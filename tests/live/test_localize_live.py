@@ -13,6 +13,13 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,8 +27,10 @@ from live_helpers import requires_ros, wait_for
 
 pytestmark = requires_ros
 
+ROOT = Path(__file__).resolve().parents[2]
+
 # A circle of 1.4 m radius around the empty arena's centre: raw odometry drifts 0.4-0.9 m within
-# 15-25 s of it (measured offline over start delays; 3.5 s at 5x real time here), and no wall or
+# 15-25 s of it (measured offline over start delays; 17 s here), and no wall or
 # episode end interrupts it.
 NODE_ARGS = (
     "--localize", "--rate-factor", "5", "--watchdog", "0", "--seed", "3", "--max-steps", "4000",
@@ -44,7 +53,7 @@ def tracking_errors(got: dict) -> tuple[np.ndarray, np.ndarray]:
 @pytest.fixture(scope="module")
 def localised(master, start_node):
     node = start_node(*NODE_ARGS)
-    got = master.client("localize", "--seconds", "3.5", timeout=60)
+    got = master.client("localize", "--sim-seconds", "17", timeout=90)
     return node, got
 
 
@@ -94,3 +103,41 @@ def test_vendored_pose_definitions_are_debians(master):
         assert result.returncode == 0, result.stderr
         text, md5sum = message_definition("noetic", f"geometry_msgs/msg/{name}")
         assert [text, md5sum] == json.loads(result.stdout), name
+
+
+def _readme_block() -> str:
+    section = (ROOT / "README.md").read_text().split("## Localise\n", 1)[1].split("\n## ", 1)[0]
+    (block,) = [
+        b for b in re.findall(r"```bash\n(.*?)```", section, re.DOTALL) if "--localize" in b
+    ]
+    return block
+
+
+def test_readme_live_localise_commands(master, tmp_path):
+    # README's block as written, against this session's master (README: "the node's own master").
+    env = {**master.venv_env, "PATH": f"{Path(sys.executable).parent}{os.pathsep}/usr/bin:/bin"}
+    with (tmp_path / "block.log").open("w") as out:
+        proc = subprocess.Popen(
+            ["bash", "-c", "set -euo pipefail\n" + _readme_block()],
+            cwd=tmp_path,
+            env=env,
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,  # the background node is stopped with its group
+        )
+        try:
+            code = proc.wait(timeout=120)
+        finally:
+            for sig in (signal.SIGTERM, signal.SIGKILL):
+                try:
+                    os.killpg(proc.pid, sig)
+                except ProcessLookupError:
+                    break
+                time.sleep(1.0)
+    text = (tmp_path / "block.log").read_text()
+    assert code == 0, text
+    assert re.search(r'^"map"$', text, flags=re.MULTILINE), text
+    x = re.search(r"^x: (\S+)$", text, flags=re.MULTILINE)
+    y = re.search(r"^y: (\S+)$", text, flags=re.MULTILINE)
+    assert x and y, text
+    assert math.hypot(float(x.group(1)) - 0.5, float(y.group(1)) - 0.5) <= 0.15, text

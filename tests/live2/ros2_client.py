@@ -398,7 +398,13 @@ def cmd_localize(node, args):
         matched(node, c)
     init = publisher(node, ns(args, "initialpose"), PoseWithCovarianceStamped)
     publisher(node, ns(args, "cmd_vel"), Twist).publish(twist(args.linear, args.angular))
-    time.sleep(args.seconds)
+    # Simulated seconds of driving, however fast the node runs on a loaded machine.
+    start = stamp_ns(truth.wait(truth.count + 1).header.stamp)
+    deadline = time.monotonic() + 60.0
+    while stamp_ns(truth.latest.header.stamp) - start < args.sim_seconds * 1e9:
+        if time.monotonic() > deadline:
+            raise SystemExit("the node did not simulate --sim-seconds within 60 s")
+        time.sleep(0.05)
     with amcl.cond, truth.cond:
         tracked = [pose_list(m.header.stamp, m.pose.pose) for m in amcl.all]
         truths = [pose_list(m.header.stamp, m.pose.pose) for m in truth.all]
@@ -464,7 +470,7 @@ def main():
     p = sub.add_parser("localize")
     p.add_argument("--linear", type=float, default=0.28)
     p.add_argument("--angular", type=float, default=0.2)
-    p.add_argument("--seconds", type=float, default=5.0)
+    p.add_argument("--sim-seconds", type=float, default=17.0)
     p.add_argument("--offset", type=float, default=0.5)
     p = sub.add_parser("tutorialloop")
     p.add_argument("--steps", type=int, default=600)

@@ -16,7 +16,7 @@ import pytest
 from ros2_helpers import client, wait_for
 
 # A circle of 1.4 m radius around the empty arena's centre: raw odometry drifts 0.4-0.9 m within
-# 15-25 s of it (measured offline over start delays; 3.5 s at 5x real time here), and no wall or
+# 15-25 s of it (measured offline over start delays; 17 s here), and no wall or
 # episode end interrupts it.
 NODE_ARGS = (
     "--localize", "--rate-factor", "5", "--watchdog", "0", "--seed", "3", "--max-steps", "4000",
@@ -28,7 +28,7 @@ NODE_ARGS = (
 @pytest.fixture(scope="module")
 def localised(start_node):
     node = start_node(*NODE_ARGS)
-    return node, client("localize", "--seconds", "3.5", timeout=90)
+    return node, client("localize", "--sim-seconds", "17", timeout=90)
 
 
 def test_amcl_pose_tracks_the_truth_while_odometry_drifts(localised):

@@ -5,7 +5,7 @@ The node hands each frame's scan and odometry (what it publishes on ``/scan`` an
 :class:`~bubblerob_env.localisation.ParticleFilter` on the episode's map (the ``/map`` it
 publishes) and answers as ``amcl`` does (:mod:`~bubblerob_env.ros.live.amcl_messages`):
 
-- ``/amcl_pose`` and ``/particlecloud`` after every filter update (the robot moved
+- ``/amcl_pose`` (latched) and ``/particlecloud`` after every filter update (the robot moved
   ``update_min_d`` or turned ``update_min_a``) and after every (re)initialisation;
 - ``map -> odom`` on ``/tf`` with every frame, stamped ``transform_tolerance`` ahead (AMCL's
   parameter, 0.1 s), so that tf lookups at the newest scan's time find it; the node's
@@ -92,7 +92,8 @@ class LiveLocalizer:
         self.names = {k: f"{prefix}/{k}" for k in ("amcl_pose", "particlecloud", "initialpose")}
         self.map_frame = topics.frame_prefix + "map"
         self.odom_frame = topics.frame_prefix + "odom"
-        self._pose_out = backend.advertise(self.names["amcl_pose"], POSE_WITH_COVARIANCE)
+        # Latched, as AMCL's (ROS 1 latch; Nav2's transient local): rviz or a late tool gets it.
+        self._pose_out = backend.advertise(self.names["amcl_pose"], POSE_WITH_COVARIANCE, True)
         self._cloud_out = backend.advertise(self.names["particlecloud"], PARTICLE_CLOUD)
         tf = topics.resolved().get("tf")
         self._tf_out = backend.advertise(tf, "tf2_msgs/msg/TFMessage") if tf else None
