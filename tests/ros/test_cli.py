@@ -46,7 +46,12 @@ def test_record_info_replay(tmp_path, capsys, forward_policy):
     assert summary["start_ns"] == 1714564800 * 10**9
 
     assert cli.main(["replay", str(bag)]) == 0
-    assert "replay matches the recording" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "replay matches the recording" in out
+    # info's count is replay's compared messages plus those it reads but does not re-simulate.
+    assert f"({summary['message_count']} in all: 2 /bubblerob/episode, 2 /map, 1 /tf_static" in out
+    compared = int(out.split(" messages: replay matches")[0].rsplit(" ", 1)[1])
+    assert compared == summary["message_count"] - 5
 
 
 def test_record_refuses_to_overwrite_and_says_how(tmp_path, capsys, forward_policy):

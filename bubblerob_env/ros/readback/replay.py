@@ -63,6 +63,10 @@ class ReplayReport:
     divergence: Divergence | None
     unfinished: bool = False
     """The bag was never finished: its complete episodes were replayed."""
+    not_resimulated: tuple[tuple[str, int], ...] = ()
+    """Messages of the replayed episodes that are read but not re-simulated, per topic: the
+    episode records, the latched ``/tf_static`` and ``/map``. With these, ``messages`` adds
+    up to ``bubblerob info``'s count for a bag replayed whole."""
 
     @property
     def ok(self) -> bool:
@@ -75,7 +79,12 @@ class ReplayReport:
             head = f"{self.path}: unfinished recording: {self.episodes} complete episode(s), "
             head += f"{self.steps} step(s), "
         if self.ok:
-            return head + f"{self.messages} messages: replay matches the recording"
+            text = head + f"{self.messages} messages: replay matches the recording"
+            if self.not_resimulated:
+                others = ", ".join(f"{count} {topic}" for topic, count in self.not_resimulated)
+                total = self.messages + sum(count for _, count in self.not_resimulated)
+                text += f" ({total} in all: {others} not re-simulated)"
+            return text
         return head + f"first divergence at {self.divergence}"
 
 
@@ -172,6 +181,7 @@ def replay_bag(path: str | Path, max_episodes: int | None = None) -> ReplayRepor
         raise ValueError(f"episodes to replay must be an int >= 1, got {max_episodes!r}")
     root = bag_root(path)
     episodes_done = steps = compared = 0
+    compared_topics: set[str] = set()
     with open_reader(root) as reader:
         unfinished = getattr(reader, "unfinished", False)
         _, episodes = find_episodes(reader)
@@ -193,6 +203,7 @@ def replay_bag(path: str | Path, max_episodes: int | None = None) -> ReplayRepor
                 serializer = _serializer(env, meta)
                 stop = episodes[index + 1]["start_time_ns"] if index + 1 < len(episodes) else None
                 per_frame = {name for name, _, latched in serializer.topics() if not latched}
+                compared_topics |= per_frame
                 recorded = _Episode(reader, meta["start_time_ns"], stop, per_frame)
                 result = _replay_episode(env, serializer, meta, recorded)
                 steps += result[0]
@@ -203,7 +214,21 @@ def replay_bag(path: str | Path, max_episodes: int | None = None) -> ReplayRepor
         finally:
             if env is not None:
                 env.close()
-    return ReplayReport(root, episodes_done, steps, compared, None, unfinished)
+        after = max_episodes is not None and max_episodes < len(episodes)
+        stop = int(episodes[max_episodes]["start_time_ns"]) if after else None
+        others = _not_resimulated(reader, compared_topics, stop)
+    return ReplayReport(root, episodes_done, steps, compared, None, unfinished, others)
+
+
+def _not_resimulated(
+    reader: Any, compared: set[str], stop: int | None
+) -> tuple[tuple[str, int], ...]:
+    """Per topic, the messages up to ``stop`` (ns; None: all) that are not re-simulated."""
+    connections = [c for c in reader.connections if c.topic not in compared]
+    counts: dict[str, int] = {}
+    for connection, _, _ in reader.messages(connections=connections, stop=stop):
+        counts[connection.topic] = counts.get(connection.topic, 0) + 1
+    return tuple(sorted(counts.items()))
 
 
 def _replay_episode(
