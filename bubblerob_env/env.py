@@ -403,6 +403,8 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
             self.max_linear_speed,
             self.max_angular_speed,
             self.odometry_noise,
+            self.robot.name,
+            self.robot.laser.publish_every,
         )
         """The env's own description as plain data (what the ROS layer and policies read)."""
 

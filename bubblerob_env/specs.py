@@ -31,6 +31,11 @@ class EnvSpecs:
     odometry_noise: float = 0.0
     """The env's ``odometry_noise``: with it, ``/odom`` drifts and the truth has a topic of its
     own (``/base_pose_ground_truth``)."""
+    robot: str = "bubblerob"
+    """The robot's name (:data:`bubblerob_env.robots.ROBOTS`)."""
+    scan_every: int = 1
+    """Control steps between two laser scans a live ROS stream publishes: the robot's (the
+    tutorial's Pioneer publishes ``/vrep/scan`` every 4th step; BubbleRob every step)."""
 
     @classmethod
     def from_env(cls, env: Any) -> EnvSpecs:
