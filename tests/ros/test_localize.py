@@ -31,7 +31,9 @@ ROOT = Path(__file__).resolve().parents[2]
 def _localise_block() -> str:
     section = (ROOT / "README.md").read_text().split("## Localise\n", 1)[1].split("\n## ", 1)[0]
     (block,) = [
-        b for b in re.findall(r"```bash\n(.*?)```", section, flags=re.DOTALL) if "localize" in b
+        b
+        for b in re.findall(r"```bash\n(.*?)```", section, flags=re.DOTALL)
+        if "bubblerob localize" in b
     ]
     return block
 
