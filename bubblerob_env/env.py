@@ -148,6 +148,10 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
     See ``__init__`` for each one's meaning.
 
     ## Version History
+    - v0 (2026-11-25, issue #26): new kwarg ``robot`` (``"bubblerob"``, the default, or
+      ``"pioneer_p3dx"``: ``PioneerP3DX-v0``); the robot-dependent kwargs default to ``None``,
+      the robot's value (:mod:`bubblerob_env.robots`). BubbleRob's episodes and bags are bit for
+      bit those of before.
     - v0 (2026-11-25, issue #28): new kwarg ``obstacle_colours`` (default ``False``: episodes and
       recorded bags unchanged) for the camera's recognition task (:mod:`bubblerob_env.vision`).
     - v0 (2026-11-25 revision): the step runs in a numba kernel (``bubblerob_env.core``) and the
