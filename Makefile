@@ -11,6 +11,11 @@ SHELL := /bin/bash
 PYTHON ?= python3
 VENV ?= .venv
 VENV_ROS2 ?= .venv-ros2
+VENV_CLIENTS ?= .venv-clients
+# RL libraries tested in a venv of their own (not dependencies: they pin their own ranges).
+# Tianshou 2.0.1's high-level API imports its [eval] extra's modules (joblib, scipy).
+CLIENT_PACKAGES := "tianshou[eval]==2.0.1"
+CLIENT_TESTS := tests/test_clients_tianshou.py
 PYTEST_ARGS ?=
 DEMO_ARGS ?=
 TORCH_CPU_INDEX ?= https://download.pytorch.org/whl/cpu
@@ -28,7 +33,7 @@ TF2_INPUTS := pyproject.toml bubblerob_env/ros/live/ros2_msgs.py bubblerob_env/r
 TORCH_REPORT := $(VENV)/.torch-install-report.json
 
 .PHONY: help demo test demo-setup test-setup debs-demo debs-test venv venv-demo kernel venv-all torch \
-	venv-ros2 tf2-msgs
+	venv-ros2 tf2-msgs test-clients
 
 help:
 	@echo "make demo        set up for the demo (Debian packages, $(VENV) with .[demo]), run it"
@@ -36,6 +41,7 @@ help:
 	echo "make test        set up for the tests (+ test packages, torch CPU, $(VENV) with .[all],"
 	echo "                 $(VENV_ROS2) with .[ros2] and tf2_msgs), run pytest (PYTEST_ARGS=...)"
 	echo "make demo-setup, make test-setup: the set-up alone"
+	echo "make test-clients: Tianshou's tests in $(VENV_CLIENTS) (not run by make test)"
 	echo "A second run skips what is installed, and says so."
 
 demo: demo-setup
@@ -50,6 +56,20 @@ test: test-setup
 
 demo-setup: debs-demo venv venv-demo kernel
 test-setup: demo-setup debs-test torch venv-all venv-ros2 tf2-msgs
+
+# The client libraries' tests skip in make test (not installed there): here they run, in their
+# own venv with CPU torch, the project and those libraries.
+test-clients: demo-setup
+	@if [ ! -x $(VENV_CLIENTS)/bin/python ]; then $(PYTHON) -m venv $(VENV_CLIENTS); fi
+	if $(VENV_CLIENTS)/bin/python -c "import torch, tianshou" 2>/dev/null; then
+	  echo "setup: torch and the clients are in $(VENV_CLIENTS): skipped"
+	else
+	  $(VENV_CLIENTS)/bin/pip install torch --index-url $(TORCH_CPU_INDEX) --timeout 20 \
+	    --retries 1 || $(VENV_CLIENTS)/bin/pip install torch==$(TORCH_FALLBACK)
+	  $(VENV_CLIENTS)/bin/pip install -e ".[dev]" $(CLIENT_PACKAGES)
+	fi
+	echo "run: $(VENV_CLIENTS)/bin/python -m pytest $(CLIENT_TESTS)"
+	$(VENV_CLIENTS)/bin/python -m pytest $(CLIENT_TESTS)
 
 # $(call apt_install,WHAT,PACKAGES): apt-get installs those of PACKAGES that are not installed.
 define apt_install
