@@ -111,6 +111,15 @@ def make_env(command: str, env_id: str, env_kwargs: dict[str, Any], **fixed: Any
     """``gym.make(env_id, **env_kwargs, **fixed)``; a bad id or kwarg is one line, exit 2."""
     import gymnasium as gym
 
+    if "=" in env_id:  # the node's old `--env KEY=JSON`: an env id never holds '='
+        key, _, value = env_id.partition("=")
+        print(
+            f"bubblerob {command}: --env takes an env id such as PioneerP3DX-v0, got "
+            f"{env_id!r}; give keyword arguments as one JSON object: "
+            f"--env-kwargs '{{\"{key}\": {value}}}'",
+            file=sys.stderr,
+        )
+        raise SystemExit(2)
     clash = sorted(key for key in fixed if key in env_kwargs and env_kwargs[key] != fixed[key])
     if clash:
         print(
