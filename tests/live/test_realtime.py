@@ -12,7 +12,7 @@ from live_helpers import requires_ros, stop, wait_for
 
 pytestmark = requires_ros
 
-NODE_ARGS = ["--camera", "--env", "num_obstacles=[0,0]", "--env", "start_pose=[0,0,0]"]
+NODE_ARGS = ["--camera", "--env-kwargs", '{"num_obstacles": [0, 0], "start_pose": [0, 0, 0]}']
 
 
 @pytest.fixture(scope="module")

@@ -105,7 +105,9 @@ def test_tutorial_loop_drives_30_s_and_rosbag_record_matches_the_recorder(
 @pytest.fixture(scope="module")
 def robot2(start_node, tutorial_node):
     """A second robot in its own namespace, in sync mode, running."""
-    return start_node("--namespace", "robot2", "--sync", "--env", "num_obstacles=[0,0]")
+    return start_node(
+        "--namespace", "robot2", "--sync", "--env-kwargs", '{"num_obstacles": [0, 0]}'
+    )
 
 
 def test_n_triggers_advance_exactly_n_steps(master, robot2):

@@ -24,7 +24,7 @@ pytestmark = [
 
 def test_teleop_drives_a_ros1_node(master, start_node):
     node = start_node(
-        "--seed", "0", "--env", "num_obstacles=[0,0]", "--env", "start_pose=[0,0,1.5708]",
+        "--seed", "0", "--env-kwargs", '{"num_obstacles": [0, 0], "start_pose": [0, 0, 1.5708]}',
         "--namespace", "tele",
     )  # fmt: skip
     ros = {k: v for k, v in master.venv_env.items() if k.startswith("ROS_")}

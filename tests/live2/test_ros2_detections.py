@@ -48,7 +48,7 @@ PROBE = textwrap.dedent(
 
 def test_a_typed_vision_msgs_subscriber_gets_detections_stamped_as_images(start_node):
     node = start_node(
-        "--camera", "--seed", "100", "--env", "obstacle_colours=true", "--watchdog", "0"
+        "--camera", "--seed", "100", "--env-kwargs", '{"obstacle_colours": true}', "--watchdog", "0"
     )
     probe = subprocess.run(
         [str(ROS2_PYTHON), "-c", PROBE],

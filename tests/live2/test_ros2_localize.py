@@ -20,8 +20,7 @@ from ros2_helpers import client, wait_for
 # episode end interrupts it.
 NODE_ARGS = (
     "--localize", "--rate-factor", "5", "--watchdog", "0", "--seed", "3", "--max-steps", "4000",
-    "--env", "odometry_noise=0.15", "--env", "num_obstacles=[0,0]",
-    "--env", "start_pose=[0,-1.4,0]",
+    "--env-kwargs", '{"odometry_noise": 0.15, "num_obstacles": [0, 0], "start_pose": [0, -1.4, 0]}',
 )  # fmt: skip
 
 

@@ -10,7 +10,7 @@ from ros2_helpers import client, wait_for
 TF_HASH = "RIHS01_e369d0f05a23ae52508854b66f6aa0437f3449d652e8cbf22d5abe85d020f087"
 """``tf2_msgs/msg/TFMessage``'s type hash in ROS 2 Jazzy (and Kilted, Lyrical)."""
 ODOM_HASH = "RIHS01_3cc97dc7fb7502f8714462c526d369e35b603cfc34d946e3f2eda2766dfec6e0"
-NODE_ARGS = ["--camera", "--env", "num_obstacles=[0,0]", "--env", "start_pose=[0,0,0]"]
+NODE_ARGS = ["--camera", "--env-kwargs", '{"num_obstacles": [0, 0], "start_pose": [0, 0, 0]}']
 
 
 @pytest.fixture(scope="module")

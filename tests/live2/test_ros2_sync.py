@@ -69,7 +69,9 @@ def test_rclpy_tutorial_loop_drives_30_s_and_gets_the_recorders_bytes(tutorial_n
 @pytest.fixture(scope="module")
 def robot2(start_node, tutorial_node):
     """A second robot in its own namespace, in sync mode, running."""
-    return start_node("--namespace", "robot2", "--sync", "--env", "num_obstacles=[0,0]")
+    return start_node(
+        "--namespace", "robot2", "--sync", "--env-kwargs", '{"num_obstacles": [0, 0]}'
+    )
 
 
 def test_n_triggers_advance_exactly_n_steps(robot2):

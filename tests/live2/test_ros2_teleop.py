@@ -20,7 +20,7 @@ pytestmark = pytest.mark.skipif(shutil.which("tmux") is None, reason="needs tmux
 
 def test_teleop_drives_a_ros2_node(start_node):
     node = start_node(
-        "--seed", "0", "--env", "num_obstacles=[0,0]", "--env", "start_pose=[0,0,1.5708]",
+        "--seed", "0", "--env-kwargs", '{"num_obstacles": [0, 0], "start_pose": [0, 0, 1.5708]}',
         "--namespace", "tele2",
     )  # fmt: skip
     ros = {k: v for k, v in ros2_env().items() if k.startswith(("ROS_", "RCUTILS_"))}

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import signal
@@ -11,6 +10,8 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
+
+from bubblerob_env.cli import add_env_arguments, make_env
 
 __all__ = ["LAUNCH_DIR", "add_node_subcommand", "parse_rate"]
 
@@ -31,16 +32,6 @@ def parse_rate(text: str) -> float:
     return value
 
 
-def _env_arg(text: str) -> tuple[str, Any]:
-    key, sep, value = text.partition("=")
-    if not sep or not key:
-        raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {text!r}")
-    try:
-        return key, json.loads(value)
-    except json.JSONDecodeError:
-        return key, value  # a plain string, e.g. a path
-
-
 def _size(text: str) -> tuple[int, int]:
     width, sep, height = text.lower().partition("x")
     if not sep or not width.isdigit() or not height.isdigit():
@@ -54,10 +45,12 @@ def add_node_subcommand(subparsers: Any) -> None:
 
     node = subparsers.add_parser(
         "node",
-        help="run BubbleRob as a live ROS node (sensors out, cmd_vel and sim control in)",
-        description="Run BubbleRob-v0 as a ROS node: publishes the recorder's topics live with "
-        "/clock, takes /cmd_vel or /leftMotorSpeed + /rightMotorSpeed, the sensor switches and "
-        "CoppeliaSim's simulation-control topics (start/pause/stop, sync mode, triggerNextStep).",
+        help="run the robot as a live ROS node (sensors out, cmd_vel and sim control in)",
+        description="Run the env --env makes (BubbleRob-v0 by default; PioneerP3DX-v0 with "
+        "--topics vrep is the third tutorial's Pioneer) as a ROS node: publishes the recorder's "
+        "topics live with /clock, takes /cmd_vel or /leftMotorSpeed + /rightMotorSpeed, the "
+        "sensor switches and CoppeliaSim's simulation-control topics (start/pause/stop, sync "
+        "mode, triggerNextStep).",
     )
     node.add_argument(
         "--ros",
@@ -113,14 +106,7 @@ def add_node_subcommand(subparsers: Any) -> None:
         default=None,
         help="stamp of the first frame: Unix seconds or an ISO 8601 date (default: now)",
     )
-    node.add_argument(
-        "--env",
-        type=_env_arg,
-        action="append",
-        default=[],
-        metavar="KEY=JSON",
-        help="BubbleRob-v0 keyword argument, e.g. num_obstacles=[0,0]",
-    )
+    add_env_arguments(node)
     node.add_argument(
         "--map-resolution",
         default="0.05",
@@ -175,9 +161,7 @@ def _node(args: argparse.Namespace) -> int:
     if args.launch_dir:
         print(LAUNCH_DIR)
         return 0
-    import gymnasium as gym
-
-    import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
+    import bubblerob_env  # noqa: F401  (registers the envs)
     from bubblerob_env.mapping import check_resolution
     from bubblerob_env.ros.episodes import start_time_ns
     from bubblerob_env.ros.live.backend import BackendError, load_backend
@@ -191,7 +175,7 @@ def _node(args: argparse.Namespace) -> int:
     problem = _usage_error(args)
     if problem is not None:
         return fail(problem)
-    kwargs: dict[str, Any] = dict(args.env)
+    kwargs: dict[str, Any] = dict(args.env_kwargs)
     if kwargs.get("action_type", "wheels") != "wheels":
         return fail("the node drives the wheels: action_type must be 'wheels' (cmd_vel is mapped)")
     kwargs["action_type"] = "wheels"
@@ -217,9 +201,9 @@ def _node(args: argparse.Namespace) -> int:
         )
         if args.start_time is not None:
             start_time_ns(args.start_time)  # a bad date fails here, before ROS starts
-        env = gym.make("BubbleRob-v0", **kwargs)
     except (TypeError, ValueError) as error:
         return fail(str(error))
+    env = make_env("node", args.env, kwargs)
     if args.localize and getattr(env.unwrapped, "laser_spec", None) is None:
         env.close()
         return fail("--localize needs the laser: leave laser_num_rays above 0")
