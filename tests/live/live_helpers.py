@@ -7,18 +7,17 @@ packages) only where Debian's ROS 1 tools are missing.
 
 from __future__ import annotations
 
-import json
 import os
-import signal
 import socket
 import subprocess
 import sys
-import threading
-import time
 from pathlib import Path
 from typing import Any
 
 import pytest
+from live_support import NodeProcess, run_json_client, stop, wait_for
+
+__all__ = ["Master", "Node", "SKIP_REASON", "free_port", "requires_ros", "stop", "wait_for"]
 
 HERE = Path(__file__).resolve().parent
 CLIENT = HERE / "ros_client.py"
@@ -57,17 +56,6 @@ def free_port() -> int:
         return int(sock.getsockname()[1])
 
 
-def stop(proc: subprocess.Popen[Any], sig: int = signal.SIGINT, timeout: float = 10.0) -> None:
-    """Stop a process we started: ``sig``, then SIGKILL after ``timeout``."""
-    if proc.poll() is None:
-        proc.send_signal(sig)
-        try:
-            proc.wait(timeout)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(5)
-
-
 class Master:
     """A running ``rosmaster`` and the environments that reach it."""
 
@@ -86,58 +74,16 @@ class Master:
 
     def client(self, *args: str, timeout: float = 30.0) -> Any:
         """Run a ``ros_client.py`` subcommand; its JSON result."""
-        result = self.run(["/usr/bin/python3", str(CLIENT), *args], timeout=timeout)
-        assert result.returncode == 0, f"client {args} failed:\n{result.stdout}\n{result.stderr}"
-        return json.loads(result.stdout.strip().splitlines()[-1])
+        return run_json_client(["/usr/bin/python3", str(CLIENT), *args], self.debian_env, timeout)
 
     def popen(self, args: list[str], **kwargs: Any) -> subprocess.Popen[str]:
         """Start a Debian ROS tool in the background."""
         return subprocess.Popen(args, env=self.debian_env, text=True, **kwargs)
 
 
-class Node:
-    """A ``bubblerob node`` subprocess; stdout/stderr collected by threads."""
+class Node(NodeProcess):
+    """A ``bubblerob node`` subprocess on ``master``; stdout/stderr collected by threads."""
 
     def __init__(self, master: Master, args: list[str], ready_timeout: float = 60.0) -> None:
-        self.args = args
-        self.proc = subprocess.Popen(
-            [sys.executable, "-m", "bubblerob_env.cli", "node", *args],
-            env=master.venv_env,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-        )
-        self.out: list[str] = []
-        self.err: list[str] = []
-        self._ready = threading.Event()
-        threading.Thread(target=self._read, args=(self.proc.stdout, self.out), daemon=True).start()
-        threading.Thread(target=self._read, args=(self.proc.stderr, self.err), daemon=True).start()
-        if not self._ready.wait(ready_timeout) or self.proc.poll() is not None:
-            self.stop()
-            raise AssertionError(f"node {args} did not start:\n{self.output}")
-
-    def _read(self, stream: Any, into: list[str]) -> None:
-        for line in stream:
-            into.append(line)
-            if "ready" in line:
-                self._ready.set()
-
-    @property
-    def output(self) -> str:
-        return "".join(self.out) + "".join(self.err)
-
-    def alive(self) -> bool:
-        return self.proc.poll() is None
-
-    def stop(self) -> int:
-        stop(self.proc, signal.SIGTERM)
-        return int(self.proc.returncode)
-
-
-def wait_for(predicate: Any, timeout: float, interval: float = 0.05) -> bool:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if predicate():
-            return True
-        time.sleep(interval)
-    return bool(predicate())
+        command = [sys.executable, "-m", "bubblerob_env.cli", "node"]
+        super().__init__(command, master.venv_env, args, ready_timeout)

@@ -8,16 +8,24 @@ Every process gets ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and this test ses
 
 from __future__ import annotations
 
-import json
 import os
-import signal
 import subprocess
-import threading
-import time
 from pathlib import Path
 from typing import Any
 
 import pytest
+from live_support import NodeProcess, run_json_client, wait_for
+
+__all__ = [
+    "DOMAIN_ID",
+    "ROOT",
+    "ROS2_PYTHON",
+    "Node",
+    "client",
+    "require_ros2",
+    "ros2_env",
+    "wait_for",
+]
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
@@ -80,73 +88,12 @@ def require_ros2() -> None:
 
 def client(*args: str, timeout: float = 60.0) -> Any:
     """Run a ``ros2_client.py`` subcommand; its JSON result."""
-    result = subprocess.run(
-        [str(ROS2_PYTHON), str(CLIENT), *args],
-        env=ros2_env(),
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-        check=False,
-    )
-    assert result.returncode == 0, f"client {args} failed:\n{result.stdout}\n{result.stderr}"
-    return json.loads(result.stdout.strip().splitlines()[-1])
+    return run_json_client([str(ROS2_PYTHON), str(CLIENT), *args], ros2_env(), timeout)
 
 
-def stop(proc: subprocess.Popen[Any], sig: int = signal.SIGINT, timeout: float = 10.0) -> None:
-    """Stop a process we started: ``sig``, then SIGKILL after ``timeout``."""
-    if proc.poll() is None:
-        proc.send_signal(sig)
-        try:
-            proc.wait(timeout)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(5)
-
-
-class Node:
+class Node(NodeProcess):
     """A ``bubblerob node --ros 2`` subprocess; stdout/stderr collected by threads."""
 
     def __init__(self, args: list[str], ready_timeout: float = 90.0) -> None:
-        self.args = args
-        self.proc = subprocess.Popen(
-            [str(ROS2_PYTHON), "-m", "bubblerob_env.cli", "node", "--ros", "2", *args],
-            env=ros2_env(),
-            cwd=ROOT,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-        )
-        self.out: list[str] = []
-        self.err: list[str] = []
-        self._ready = threading.Event()
-        threading.Thread(target=self._read, args=(self.proc.stdout, self.out), daemon=True).start()
-        threading.Thread(target=self._read, args=(self.proc.stderr, self.err), daemon=True).start()
-        if not self._ready.wait(ready_timeout) or self.proc.poll() is not None:
-            self.stop()
-            raise AssertionError(f"node {args} did not start:\n{self.output}")
-
-    def _read(self, stream: Any, into: list[str]) -> None:
-        for line in stream:
-            into.append(line)
-            if "ready" in line:
-                self._ready.set()
-
-    @property
-    def output(self) -> str:
-        return "".join(self.out) + "".join(self.err)
-
-    def alive(self) -> bool:
-        return self.proc.poll() is None
-
-    def stop(self) -> int:
-        stop(self.proc, signal.SIGTERM)
-        return int(self.proc.returncode)
-
-
-def wait_for(predicate: Any, timeout: float, interval: float = 0.05) -> bool:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if predicate():
-            return True
-        time.sleep(interval)
-    return bool(predicate())
+        command = [str(ROS2_PYTHON), "-m", "bubblerob_env.cli", "node", "--ros", "2"]
+        super().__init__(command, ros2_env(), args, ready_timeout, cwd=ROOT)
