@@ -397,6 +397,51 @@ def cmd_localize(args):
     }
 
 
+def cmd_vrep(args):
+    """The tutorial's Pioneer interface: drive on /vrep/cmd_vel while recording /vrep/scan, /simTime
+    and /vrep/image stamps; then both switches off for ``--seconds``, then on again."""
+    from sensor_msgs.msg import Image, LaserScan
+
+    scan = Counter("/vrep/scan", LaserScan, keep=True)
+    image = Counter("/vrep/image", Image, keep=True)
+    sim_time = Counter("/simTime", Float32, keep=True)
+    clock = Counter("/clock", Clock, keep=True)
+    odom = Counter("/odom", Odometry)
+    static = Counter("/tf_static", TFMessage, keep=True)
+    for c in (scan, image, sim_time, clock, odom):
+        wait_connected(c.sub)
+    switches = {s: publisher(f"/vrep/{s}_switch", Bool, latch=True) for s in ("laser", "camera")}
+    drive = publisher("/vrep/cmd_vel", Twist)
+    before = odom_dict(odom.wait(odom.count + 1))
+    marks = {"start": (scan.count, image.count, sim_time.count)}
+    end, rate = time.monotonic() + args.seconds, rospy.Rate(20)
+    while time.monotonic() < end:
+        drive.publish(twist(args.linear, args.angular))
+        rate.sleep()
+    after = odom_dict(odom.wait(odom.count + 1))
+    for phase, on in (("off", False), ("on", True)):
+        for pub in switches.values():
+            pub.publish(Bool(on))
+        time.sleep(0.5)  # the switches take effect at the node's next step
+        marks[phase] = (scan.count, image.count, sim_time.count)
+        time.sleep(args.seconds)
+        marks[phase + "_end"] = (scan.count, image.count, sim_time.count)
+    return {
+        "before": before,
+        "after": after,
+        "marks": marks,
+        "scan_stamps": [m.header.stamp.to_nsec() for m in scan.all],
+        "scan_rays": len(scan.all[0].ranges),
+        "scan_frame": scan.all[0].header.frame_id,
+        "image_stamps": [m.header.stamp.to_nsec() for m in image.all],
+        "sim_times": [m.data for m in sim_time.all],
+        "clocks": [m.clock.to_nsec() for m in clock.all],
+        "tf_static": [
+            [t.header.frame_id, t.child_frame_id] for m in static.all for t in m.transforms
+        ],
+    }
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--ns", default="")
@@ -428,6 +473,10 @@ def main():
     p.add_argument("--sim-seconds", type=float, default=17.0)
     p.add_argument("--offset", type=float, default=0.5)
     p.add_argument("--frame-prefix", default="")
+    p = sub.add_parser("vrep")
+    p.add_argument("--linear", type=float, default=0.6)
+    p.add_argument("--angular", type=float, default=0.4)
+    p.add_argument("--seconds", type=float, default=1.5)
     p = sub.add_parser("tutorialloop")
     p.add_argument("--steps", type=int, default=600)
     p.add_argument("--forward", type=float, default=8.0)

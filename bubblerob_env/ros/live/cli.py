@@ -165,6 +165,7 @@ def _node(args: argparse.Namespace) -> int:
     from bubblerob_env.mapping import check_resolution
     from bubblerob_env.ros.episodes import start_time_ns
     from bubblerob_env.ros.live.backend import BackendError, load_backend
+    from bubblerob_env.ros.live.controls import CONTROL_PRESETS
     from bubblerob_env.ros.live.node import NodeConfig, SimNode, shared_clock_ns
     from bubblerob_env.ros.messages.topics import topics_preset
 
@@ -221,7 +222,7 @@ def _node(args: argparse.Namespace) -> int:
             print(f"bubblerob node: no {shared} within 10 s: starting at the wall clock")
         else:
             config = replace(config, start_time=f"{start // 10**9}.{start % 10**9:09d}")
-    node = SimNode(env, backend, topics, config=config)
+    node = SimNode(env, backend, topics, CONTROL_PRESETS.get(args.topics), config=config)
     previous = signal.signal(signal.SIGTERM, lambda *_: node.request_stop())
     print(
         f"bubblerob node: ROS {args.ros}, {len(node.publisher.sink.topics)} topics, "

@@ -24,6 +24,7 @@ from bubblerob_env.ros.messages.distros import deserialize
 from bubblerob_env.ros.messages.topics import namespace_prefix
 
 __all__ = [
+    "CONTROL_PRESETS",
     "CONTROL_TYPES",
     "ControlError",
     "ControlState",
@@ -67,6 +68,15 @@ class ControlTopics:
         """Full name of every control topic, namespace applied."""
         prefix = namespace_prefix(namespace)
         return {key: prefix + "/" + name.strip("/") for key, name in self.__dict__.items()}
+
+
+CONTROL_PRESETS = {
+    "default": ControlTopics(),
+    # The third tutorial's Pioneer (../shared/SEEDS.md, seed 002): its switches under /vrep/.
+    "vrep": ControlTopics(laser_switch="vrep/laser_switch", camera_switch="vrep/camera_switch"),
+}
+"""The control topics that go with each topic preset of
+:data:`~bubblerob_env.ros.messages.topics.PRESETS` (``bubblerob node --topics``)."""
 
 
 def decode_control(kind: str, raw: bytes, encoding: str) -> Any:

@@ -271,7 +271,10 @@ class SimNode:
         assert localizer is not None and stamp is not None
         if reset:
             localizer.reset(self.publisher, info, stamp)
-        localizer.step(obs, info, stamp, self.state.laser_on)
+        # The filter sees the scans a subscriber sees: none switched off, one per scan_every.
+        scan = self.publisher.scan_topic
+        published = scan is None or self.publisher.sink.latest_due(scan)
+        localizer.step(obs, info, stamp, self.state.laser_on and published)
 
     def _handle(self, event: str, value: bool) -> None:
         before = self.sim_state

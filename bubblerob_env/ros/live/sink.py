@@ -17,7 +17,12 @@ __all__ = ["LiveSink"]
 
 
 class LiveSink(BagSink):
-    """Publishes every record on its topic through ``backend``; muted topics are skipped."""
+    """Publishes every record on its topic through ``backend``; muted topics are skipped.
+
+    A topic set with :meth:`publish_every` goes out only every ``n``-th record (the first, then
+    every ``n``: the tutorial's Pioneer publishes ``/vrep/scan`` every 4th simulation step). Its
+    records are counted whether muted or not, so a switch does not shift which steps publish.
+    """
 
     def __init__(self, backend: LiveBackend) -> None:
         """Publish through ``backend`` (its distro decides which serializer feeds this sink)."""
@@ -27,6 +32,8 @@ class LiveSink(BagSink):
         self._types: dict[str, str] = {}
         self.muted: set[str] = set()
         self.published = 0
+        self._every: dict[str, int] = {}
+        self._seen: dict[str, int] = {}
 
     def add_topic(self, topic: str, msgtype: str, latched: bool = False) -> None:
         """Advertise ``topic`` (latched topics reach late subscribers too)."""
@@ -36,11 +43,28 @@ class LiveSink(BagSink):
 
     def write_batch(self, records: Sequence[Record]) -> None:
         """Publish each record now (its stamp is already in the message where it has one)."""
-        muted = self.muted
+        muted, every = self.muted, self._every
         for topic, _, data in records:
+            if topic in every:
+                seen = self._seen[topic]
+                self._seen[topic] = seen + 1
+                if seen % every[topic]:
+                    continue
             if topic not in muted:
                 self._publish[topic](data)
                 self.published += 1
+
+    def publish_every(self, topic: str, every: int) -> None:
+        """Publish ``topic``'s first record, then every ``every``-th (1: all of them)."""
+        if every < 1:
+            raise ValueError(f"publish every n-th {topic} record needs n >= 1, got {every}")
+        self._every[topic] = every
+        self._seen[topic] = 0
+
+    def latest_due(self, topic: str) -> bool:
+        """Whether ``topic``'s latest record was one to publish (muted or not)."""
+        every = self._every.get(topic, 1)
+        return (self._seen.get(topic, 1) - 1) % every == 0
 
     def mute(self, topics: Iterable[str], muted: bool = True) -> None:
         """Stop (``muted``) or resume publishing ``topics``."""

@@ -40,7 +40,9 @@ class RosLivePublisher(gym.Wrapper[Any, Any, Any, Any]):
         backend: A started :class:`~bubblerob_env.ros.live.backend.LiveBackend`; default: start
             one with ``ros`` (it is shut down by :meth:`close`).
         ros: 1 (``rospy``) or 2 (``rclpy``) when no backend is given.
-        topics: Topic names (default :class:`~bubblerob_env.ros.messages.topics.Topics`).
+        topics: Topic names (default :class:`~bubblerob_env.ros.messages.topics.Topics`). The
+            scan goes out every ``EnvSpecs.scan_every`` steps (the robot's: the Pioneer's 4th),
+            the other topics and any bag in ``sinks`` every step.
         sinks: More sinks (bags from :func:`~bubblerob_env.ros.bags.sinks.open_bag`) fed with the
             same serialised bytes; they are closed by :meth:`close`.
         metadata: JSON-able facts published with every episode on the episode topic.
@@ -72,6 +74,10 @@ class RosLivePublisher(gym.Wrapper[Any, Any, Any, Any]):
         self._dt_ns = round(float(env.unwrapped.dt) * 1e9)  # type: ignore[attr-defined]
         self.fanout = MessageFanout(self.specs, self.topics)
         self.sink = LiveSink(self.backend)
+        self.scan_topic = self.topics.resolved().get("scan")
+        """The laser's topic, published every ``specs.scan_every`` steps live (bags: every one)."""
+        if self.scan_topic is not None and self.specs.laser is not None:
+            self.sink.publish_every(self.scan_topic, self.specs.scan_every)
         self.fanout.add_sink(self.sink)
         self._extra = list(sinks)
         for sink in self._extra:

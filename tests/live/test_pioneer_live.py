@@ -1,0 +1,87 @@
+"""The third tutorial's Pioneer as a live ROS 1 node (issue #26): ``--env PioneerP3DX-v0
+--topics vrep`` against a real rosmaster and a rospy client (``ros_client.py vrep``).
+
+The tutorial's scene (../shared/SEEDS.md, seed 002) publishes ``/vrep/scan`` every 4th simulation
+step, ``/vrep/image``, ``/simTime`` and the static ``base_link -> laser_link`` and ``base_link ->
+camera_link``; ``/vrep/laser_switch`` and ``/vrep/camera_switch`` turn the sensors off and on, and
+``/vrep/cmd_vel`` drives it.
+"""
+
+from __future__ import annotations
+
+import math
+from itertools import pairwise
+
+import pytest
+from live_helpers import requires_ros
+
+pytestmark = requires_ros
+
+DT_NS = 50_000_000
+"""The Pioneer's control step (20 Hz)."""
+SCAN_EVERY = 4
+NODE_ARGS = (
+    "--env", "PioneerP3DX-v0", "--topics", "vrep", "--camera", "--seed", "0",
+    "--env-kwargs", '{"num_obstacles": [0, 0], "start_pose": [0, 0, 0]}',
+)  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def vrep(master, start_node):
+    node = start_node(*NODE_ARGS)
+    got = master.client("vrep", "--linear", "0.6", "--angular", "0.4", "--seconds", "1.5")
+    assert node.alive(), node.output
+    return got
+
+
+def between(stamps_or_values: list, marks: dict, first: str, last: str, column: int) -> list:
+    return stamps_or_values[marks[first][column] : marks[last][column]]
+
+
+def test_vrep_scan_goes_out_every_4th_step_of_sim_time(vrep):
+    assert (vrep["scan_rays"], vrep["scan_frame"]) == (901, "laser_link")
+    marks = vrep["marks"]
+    scans = between(vrep["scan_stamps"], marks, "start", "off", 0)
+    assert len(scans) >= 5, marks
+    # One scan per 4 control steps: consecutive scans are 4 steps of simulated time apart...
+    assert {b - a for a, b in pairwise(scans)} == {SCAN_EVERY * DT_NS}
+    # ... while /clock ticks every step: 4 ticks per scan between the first and the last.
+    clocks = [c for c in vrep["clocks"] if scans[0] <= c <= scans[-1]]
+    assert len(clocks) == SCAN_EVERY * (len(scans) - 1) + 1, (len(clocks), len(scans))
+    # /simTime (std_msgs/Float32) goes out every step too, as /clock does.
+    assert abs(len(vrep["sim_times"]) - len(vrep["clocks"])) <= 3
+    # Switched off and on again, the scans keep the same 4-step grid.
+    first = vrep["scan_stamps"][0]
+    assert all((s - first) % (SCAN_EVERY * DT_NS) == 0 for s in vrep["scan_stamps"])
+
+
+def test_vrep_image_every_step_and_static_frames(vrep):
+    marks = vrep["marks"]
+    images = between(vrep["image_stamps"], marks, "start", "off", 1)
+    assert {b - a for a, b in pairwise(images)} == {DT_NS}
+    assert ["base_link", "laser_link"] in vrep["tf_static"]
+    assert ["base_link", "camera_link"] in vrep["tf_static"]
+
+
+def test_vrep_switches_turn_the_laser_and_camera_off_and_on(vrep):
+    marks = vrep["marks"]
+    (scan_off, image_off, time_off), (scan_off_end, image_off_end, time_off_end) = (
+        marks["off"],
+        marks["off_end"],
+    )
+    assert (scan_off_end - scan_off, image_off_end - image_off) == (0, 0), marks
+    assert time_off_end - time_off >= 10, marks  # the simulation ran on meanwhile
+    (scan_on, image_on, _), (scan_end, image_end, _) = marks["on"], marks["on_end"]
+    assert scan_end - scan_on >= 3 and image_end - image_on >= 12, marks
+
+
+def test_vrep_cmd_vel_drives_forward_and_counter_clockwise(vrep):
+    before, after = vrep["before"], vrep["after"]
+    assert (before["x"], before["y"], before["yaw"]) == pytest.approx((0, 0, 0), abs=1e-3)
+    dx, dy = after["x"] - before["x"], after["y"] - before["y"]
+    forward = dx * math.cos(before["yaw"]) + dy * math.sin(before["yaw"])
+    # 1.5 s at 0.6 m/s and 0.4 rad/s (the client's wall clock; the node at real time): about 0.9 m
+    # along an arc turning 0.6 rad to the left.
+    assert forward > 0.5, (before, after)
+    assert math.remainder(after["yaw"] - before["yaw"], 2 * math.pi) > 0.3, (before, after)
+    assert after["vx"] == pytest.approx(0.6, abs=0.1) and after["wz"] == pytest.approx(0.4, abs=0.1)
