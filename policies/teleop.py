@@ -5,7 +5,8 @@ stops, q quits. A status line shows the commanded and measured speed, the neares
 and the collisions so far. The env runs in twist mode at its own control rate (20 Hz by default),
 paced to wall-clock time. ``--record DIR`` wraps the env in the ROS bag recorder (the ``ros``
 extra, imported only then). At exit one line ``final pose: x=.. y=.. yaw=..`` is printed.
-``--ros 1|2`` drives a running ``bubblerob node`` instead (:mod:`policies.teleop_ros`).
+``--ros 1|2`` drives a running ``bubblerob node`` instead (:mod:`policies.teleop_ros`), with the
+limits of the env that ``--env`` and ``--env-kwargs`` make and the node's ``--topics`` names.
 """
 
 from __future__ import annotations
@@ -144,29 +145,42 @@ def _drive(
     return info
 
 
+def _ros_limits(args: argparse.Namespace) -> tuple[float, float]:
+    """The robot's top speed (m/s) and turn rate (rad/s): those of ``--env``, as the node's."""
+    from bubblerob_env.cli import make_env
+
+    env = make_env("teleop", args.env, args.env_kwargs)
+    base: Any = env.unwrapped
+    limits = (float(base.max_linear_speed), float(base.max_angular_speed))
+    env.close()
+    return limits
+
+
 def _run_ros(args: argparse.Namespace) -> int:
     """``--ros 1|2``: drive a live node; one line and exit 2 if ROS cannot be reached."""
     from bubblerob_env.extras import require_extra
 
     require_extra("ros", f"bubblerob teleop --ros {args.ros}")
     from bubblerob_env.ros.live.backend import BackendError
+    from bubblerob_env.ros.messages.topics import topics_preset
     from policies.teleop_ros import RosLink, run_ros_teleop
 
-    local = (args.record, args.start_pose, args.num_obstacles, args.env_kwargs or None)
-    if any(option is not None for option in local) or args.env != "BubbleRob-v0":
+    local = (args.record, args.start_pose, args.num_obstacles)
+    if any(option is not None for option in local):
         print(
-            "bubblerob teleop: --record, --start-pose, --num-obstacles, --env and --env-kwargs "
-            "are for the local simulation; with --ros give them to `bubblerob node` (--env, "
-            "rosbag record)",
+            "bubblerob teleop: --record, --start-pose and --num-obstacles are for the local "
+            "simulation; with --ros give them to `bubblerob node` (--env-kwargs, rosbag record)",
             file=sys.stderr,
         )
         return 2
-    env = gym.make("BubbleRob-v0", laser_num_rays=0)  # the robot's limits, as the node has them
-    base: Any = env.unwrapped
-    limits = (float(base.max_linear_speed), float(base.max_angular_speed))
-    env.close()
     try:
-        link = RosLink(args.ros, args.namespace, *limits)
+        topics = topics_preset(args.topics, args.namespace)
+    except ValueError as error:
+        print(f"bubblerob teleop: --topics: {error}", file=sys.stderr)
+        return 2
+    limits = _ros_limits(args)  # the node's env: --env and --env-kwargs as it was given them
+    try:
+        link = RosLink(args.ros, topics, *limits)
     except BackendError as error:
         print(f"bubblerob teleop: {error}", file=sys.stderr)
         return 2
@@ -181,7 +195,7 @@ def _run_ros(args: argparse.Namespace) -> int:
         link.close()
     pose = link.pose
     if pose is None:
-        print(f"final pose: unknown (nothing on the node's odom with namespace {args.namespace!r})")
+        print(f"final pose: unknown (nothing on the node's {link.odom_topic})")
     else:
         print(f"final pose: x={pose[0]:.4f} y={pose[1]:.4f} yaw={pose[2]:.4f} (odom)")
     return 0
@@ -294,12 +308,20 @@ def add_subcommands(subparsers: Any) -> None:
         choices=(1, 2),
         default=None,
         help="publish cmd_vel to a running `bubblerob node --ros N` instead of simulating "
-        "(2: run it with .venv-ros2's bubblerob)",
+        "(2: run it with .venv-ros2's bubblerob); give --env, --env-kwargs and --topics as the "
+        "node has them (its top speed and turn rate, its topic names)",
     )
     parser.add_argument(
         "--namespace",
         default=os.environ.get("ROS_NAMESPACE", ""),
         help="with --ros: the node's namespace (default: $ROS_NAMESPACE)",
+    )
+    parser.add_argument(
+        "--topics",
+        default="default",
+        metavar="PRESET",
+        help="with --ros: the node's topic names, its --topics (default or vrep: /vrep/cmd_vel, "
+        "/vrep/scan)",
     )
     parser.add_argument(
         "--max-seconds",

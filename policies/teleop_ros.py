@@ -15,11 +15,14 @@ import curses
 import math
 import threading
 import time
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from policies.teleop import TeleopState
+
+if TYPE_CHECKING:
+    from bubblerob_env.ros.messages.topics import Topics
 
 __all__ = ["RosLink", "run_ros_teleop"]
 
@@ -32,22 +35,23 @@ class RosLink:
 
     Args:
         ros: 1 (``rospy``) or 2 (``rclpy``).
-        namespace: The live node's namespace (its ``--namespace``).
+        topics: The live node's topic names and namespace (its ``--topics``, ``--namespace``).
         max_linear: m/s of a full forward command; max_angular: rad/s of a full turn command.
 
     Raises:
         BackendError: No client library, or (ROS 1) no master: the message says what to do.
     """
 
-    def __init__(self, ros: int, namespace: str, max_linear: float, max_angular: float) -> None:
+    def __init__(self, ros: int, topics: Topics, max_linear: float, max_angular: float) -> None:
         from bubblerob_env.ros.live.backend import load_backend
         from bubblerob_env.ros.messages.distros import deserialize, serialize, typestore
-        from bubblerob_env.ros.messages.topics import MSGTYPES, Topics
+        from bubblerob_env.ros.messages.topics import MSGTYPES
 
-        names = Topics(namespace=namespace).resolved()
+        names = topics.resolved()
         self.topic = names["cmd_vel"]
+        self.odom_topic = names["odom"]
         self.backend = load_backend(
-            ros, node_name="bubblerob_teleop", namespace=namespace, anonymous=True
+            ros, node_name="bubblerob_teleop", namespace=topics.namespace, anonymous=True
         )
         self.distro = self.backend.distro
         self.max_linear, self.max_angular = max_linear, max_angular
@@ -106,7 +110,7 @@ class RosLink:
             f"| nearest {nearest:.2f} m | collisions {collisions}"
         )
         if pose is None:
-            return first, f"waiting for {self.topic.rsplit('/', 1)[0]}/odom from the node"
+            return first, f"waiting for {self.odom_topic} from the node"
         return first, f"pose x={pose[0]:+.2f} y={pose[1]:+.2f} yaw={pose[2]:+.2f} (odom)"
 
     def close(self) -> None:
