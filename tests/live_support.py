@@ -87,17 +87,28 @@ class NodeProcess:
         self.out: list[str] = []
         self.err: list[str] = []
         self._ready = threading.Event()
-        threading.Thread(target=self._read, args=(self.proc.stdout, self.out), daemon=True).start()
-        threading.Thread(target=self._read, args=(self.proc.stderr, self.err), daemon=True).start()
-        if not self._ready.wait(ready_timeout) or self.proc.poll() is not None:
+        self._said_ready = False
+        readers = [
+            threading.Thread(target=self._read, args=(stream, into), daemon=True)
+            for stream, into in ((self.proc.stdout, self.out), (self.proc.stderr, self.err))
+        ]
+        for reader in readers:
+            reader.start()
+        self._ready.wait(ready_timeout)
+        if not self._said_ready or self.proc.poll() is not None:
             self.stop()
+            for reader in readers:
+                reader.join(5.0)
             raise AssertionError(f"node {args} did not start:\n{self.output}")
 
     def _read(self, stream: Any, into: list[str]) -> None:
         for line in stream:
             into.append(line)
             if "ready" in line:
+                self._said_ready = True
                 self._ready.set()
+        # End of output: the node exited. Stop waiting for it at once, not after ready_timeout.
+        self._ready.set()
 
     @property
     def output(self) -> str:
