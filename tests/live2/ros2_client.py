@@ -3,18 +3,18 @@
 Written as a ROS 2 user writes them: ``rclpy`` subscriptions and publishers with the message
 classes, ``qos_profile_sensor_data`` for sensors, ``use_sim_time`` for the simulated clock. Each
 subcommand prints one JSON line on stdout. ``tutorialloop`` is the tutorial's ``rosBubbleRob2``:
-forward; for a while after ``sensorTrigger``, back up while turning.
+forward; for a while after ``sensorTrigger``, back up while turning. What does not depend on
+rclpy is in ``tests/live_client_support.py``, shared with the ROS 1 client.
 """
 
-import argparse
 import json
-import math
 import sys
 import threading
 import time
+from pathlib import Path
 
 import rclpy
-from geometry_msgs.msg import Twist
+from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped, Twist
 from nav_msgs.msg import OccupancyGrid, Odometry
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
@@ -24,6 +24,10 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import CameraInfo, Image, LaserScan, Range
 from std_msgs.msg import Bool, Float32, Float64MultiArray, Int32, String
 from tf2_msgs.msg import TFMessage
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tests/: the shared client parts
+import live_client_support as shared  # noqa: E402
+from live_client_support import ns  # noqa: E402
 
 LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 SENSOR_TYPES = (LaserScan, Range, Image, CameraInfo)
@@ -39,38 +43,14 @@ RAW_TOPICS = {
 """Reliable topics whose every message ``tutorialloop --raw`` keeps as received (CDR bytes)."""
 
 
-class Counter:
-    """Messages of one topic: count, latest, all (optional)."""
+class Counter(shared.MessageCounter):
+    """Messages of one topic (rclpy subscription): count, latest, all (optional)."""
 
     def __init__(self, node, topic, cls, keep=False, qos=None):
-        self.cond = threading.Condition()
-        self.topic = topic
-        self.count = 0
-        self.latest = None
-        self.all = [] if keep else None
+        super().__init__(topic, keep, timeout=10.0)
         if qos is None:
             qos = qos_profile_sensor_data if cls in SENSOR_TYPES else 100
         self.sub = node.create_subscription(cls, topic, self._cb, qos)
-
-    def _cb(self, msg):
-        with self.cond:
-            self.count += 1
-            self.latest = msg
-            if self.all is not None:
-                self.all.append(msg)
-            self.cond.notify_all()
-
-    def wait(self, count, timeout=10.0):
-        end = time.monotonic() + timeout
-        with self.cond:
-            while self.count < count:
-                left = end - time.monotonic()
-                if left <= 0:
-                    raise SystemExit(
-                        f"timeout waiting for message {count} on {self.topic} (have {self.count})"
-                    )
-                self.cond.wait(left)
-            return self.latest
 
 
 def wait_until(predicate, timeout, what):
@@ -94,28 +74,18 @@ def matched(node, counter, timeout=10.0):
     time.sleep(0.3)
 
 
-def ns(args, name):
-    return (args.ns.rstrip("/") + "/" + name) if args.ns else "/" + name
-
-
 def stamp_ns(t):
     return t.sec * 1_000_000_000 + t.nanosec
 
 
 def odom_dict(msg):
-    p, q, t = msg.pose.pose.position, msg.pose.pose.orientation, msg.twist.twist
-    yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
-    return {
-        "x": p.x,
-        "y": p.y,
-        "yaw": yaw,
-        "w": q.w,
-        "vx": t.linear.x,
-        "wz": t.angular.z,
-        "frame_id": msg.header.frame_id,
-        "child_frame_id": msg.child_frame_id,
-        "stamp": stamp_ns(msg.header.stamp),
-    }
+    fields = shared.odom_fields(msg, stamp_ns(msg.header.stamp))
+    fields.update(
+        w=msg.pose.pose.orientation.w,
+        frame_id=msg.header.frame_id,
+        child_frame_id=msg.child_frame_id,
+    )
+    return fields
 
 
 def qos_of(node, topic):
@@ -180,17 +150,8 @@ def cmd_map(node, args):
     first = maps.wait(1, timeout=20)
     static.wait(1, timeout=20)
     time.sleep(args.seconds)
-    i, o = first.info, first.info.origin
     return {
-        "first": {
-            "stamp": stamp_ns(first.header.stamp),
-            "frame_id": first.header.frame_id,
-            "resolution": i.resolution,
-            "width": i.width,
-            "height": i.height,
-            "origin": [o.position.x, o.position.y, o.orientation.w],
-            "data": list(first.data),
-        },
+        "first": shared.grid_fields(first, stamp_ns(first.header.stamp)),
         "stamps": [stamp_ns(m.header.stamp) for m in maps.all],
         "distinct": len({bytes(bytearray(m.data)) for m in maps.all}),
         "tf_static": sorted(
@@ -247,15 +208,7 @@ def cmd_drive(node, args):
     """Publish a twist on cmd_vel at 20 Hz for ``--seconds``; odometry then and ``--idle`` later."""
     odom = Counter(node, ns(args, "odom"), Odometry)
     pub = publisher(node, ns(args, "cmd_vel"), Twist, depth=10)
-    end = time.monotonic() + args.seconds
-    while time.monotonic() < end:
-        pub.publish(twist(args.linear, args.angular))
-        time.sleep(0.05)
-    result = {"moving": odom_dict(odom.wait(1))}
-    if args.idle:
-        time.sleep(args.idle)
-        result["idle"] = odom_dict(odom.latest)
-    return result
+    return shared.drive(args, lambda v, w: pub.publish(twist(v, w)), odom, odom_dict)
 
 
 def cmd_sync(node, args):
@@ -265,17 +218,9 @@ def cmd_sync(node, args):
     clock = Counter(node, "/clock", Clock)
     matched(node, done)
     matched(node, clock)
-    trigger.publish(Bool(data=True))
-    done.wait(1)
-    t0 = stamp_ns(clock.wait(1).clock)
-    c0 = clock.count
-    for _ in range(args.n):
-        trigger.publish(Bool(data=True))
-    done.wait(1 + args.n, timeout=20)
-    clock.wait(c0 + args.n)
-    t1 = stamp_ns(clock.latest.clock)
-    time.sleep(args.settle)
-    return {"t0": t0, "t1": t1, "done": done.count - 1, "clocks": clock.count - c0}
+    return shared.sync(
+        args, lambda: trigger.publish(Bool(data=True)), done, clock, lambda m: stamp_ns(m.clock)
+    )
 
 
 def cmd_states(node, args):
@@ -287,20 +232,7 @@ def cmd_states(node, args):
     }
     state.wait(1)
     matched(node, clock)
-    seen = [state.latest.data]
-    paused_clocks = None
-    for event in ("pause", "start", "stop", "start"):
-        before = state.count
-        pubs[event].publish(Bool(data=True))
-        state.wait(before + 1)
-        seen.append(state.latest.data)
-        if event == "pause":
-            time.sleep(0.2)
-            c = clock.count
-            time.sleep(args.pause_seconds)
-            paused_clocks = clock.count - c
-    time.sleep(0.5)
-    return {"states": seen, "paused_clocks": paused_clocks, "clocks": clock.count}
+    return shared.states(args, state, clock, lambda event: pubs[event].publish(Bool(data=True)))
 
 
 def cmd_topics(node, args):
@@ -332,26 +264,14 @@ def cmd_tutorialloop(node, args):
     for c in (trig, done, term, odom, action):
         matched(node, c)
     start.publish(Bool(data=True))
-    trig.wait(1)
-    back_steps, command, triggers = 0, None, 0
-    for k in range(args.steps):
-        if trig.latest.data:
-            back_steps = args.back_steps
-            triggers += 1
-        if back_steps > 0:
-            wanted = (-args.speed / 2, -args.speed / 4)
-            back_steps -= 1
-        else:
-            wanted = (args.forward, args.forward)
-        left.publish(Float32(data=wanted[0]))  # every step, as the tutorial's node does (and
-        right.publish(Float32(data=wanted[1]))  # the node's watchdog wants)
-        if wanted != command:
-            command = wanted
-            time.sleep(0.005)  # commands and trigger travel on different DDS writers
-        trigger.publish(Bool(data=True))
-        done.wait(k + 1)
-        trig.wait(k + 2)
-    time.sleep(args.settle)
+
+    def wheels(left_speed, right_speed):
+        left.publish(Float32(data=left_speed))
+        right.publish(Float32(data=right_speed))
+
+    triggers = shared.tutorial_loop(
+        args, trig, done, wheels, lambda: trigger.publish(Bool(data=True))
+    )
     if args.raw:
         with open(args.raw, "w") as f:
             json.dump({t: [bytes(m).hex() for m in msgs] for t, msgs in raw.items()}, f)
@@ -365,29 +285,8 @@ def cmd_tutorialloop(node, args):
     }
 
 
-def pose_list(stamp, pose):
-    p, q = pose.position, pose.orientation
-    yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
-    return [stamp_ns(stamp), p.x, p.y, yaw]
-
-
-def initial_pose(frame, x, y, yaw, variance=0.01):
-    from geometry_msgs.msg import PoseWithCovarianceStamped
-
-    msg = PoseWithCovarianceStamped()
-    msg.header.frame_id = frame
-    msg.pose.pose.position.x, msg.pose.pose.position.y = x, y
-    msg.pose.pose.orientation.z, msg.pose.pose.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
-    covariance = [0.0] * 36
-    covariance[0] = covariance[7] = covariance[35] = variance
-    msg.pose.covariance = covariance
-    return msg
-
-
 def cmd_localize(node, args):
     """Drive a circle; /amcl_pose and the truth; malformed /initialpose, then a valid one."""
-    from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped
-
     amcl = Counter(node, ns(args, "amcl_pose"), PoseWithCovarianceStamped, keep=True)
     truth = Counter(node, ns(args, "base_pose_ground_truth"), Odometry, keep=True)
     odom = Counter(node, ns(args, "odom"), Odometry)
@@ -398,87 +297,26 @@ def cmd_localize(node, args):
         matched(node, c)
     init = publisher(node, ns(args, "initialpose"), PoseWithCovarianceStamped)
     publisher(node, ns(args, "cmd_vel"), Twist).publish(twist(args.linear, args.angular))
-    # Simulated seconds of driving, however fast the node runs on a loaded machine.
-    start = stamp_ns(truth.wait(truth.count + 1).header.stamp)
-    deadline = time.monotonic() + 60.0
-    while stamp_ns(truth.latest.header.stamp) - start < args.sim_seconds * 1e9:
-        if time.monotonic() > deadline:
-            raise SystemExit("the node did not simulate --sim-seconds within 60 s")
-        time.sleep(0.05)
-    with amcl.cond, truth.cond:
-        tracked = [pose_list(m.header.stamp, m.pose.pose) for m in amcl.all]
-        truths = [pose_list(m.header.stamp, m.pose.pose) for m in truth.all]
-    last_odom = pose_list(odom.latest.header.stamp, odom.latest.pose.pose)
-    init.publish(b"\x00\x01\x00\x00\x01")  # CDR too short for the type
-    init.publish(initial_pose("map", float("nan"), 0.0, 0.0))
-    init.publish(initial_pose("base_link", 0.0, 0.0, 0.0))
-    time.sleep(1.0)
-    after_bad = amcl.count
-    _, x, y, yaw = pose_list(truth.latest.header.stamp, truth.latest.pose.pose)
-    target = [x + args.offset, y, yaw]
-    init.publish(initial_pose("map", *target))
-    amcl.wait(after_bad + 1)
-    time.sleep(1.0)  # poses published before the node took the initial pose come first
-    return {
-        "tracked": tracked,
-        "truth": truths,
-        "odom_last": last_odom,
-        "clouds": cloud.count,
-        "cloud_size": len(cloud.latest.poses),
-        "cloud_frame": cloud.latest.header.frame_id,
-        "amcl_frame": amcl.all[0].header.frame_id,
-        "amcl_covariance": list(amcl.all[-1].pose.covariance),
-        "tf_map_odom": sum(1 for m in tf.all for t in m.transforms if t.header.frame_id == "map"),
-        "tf_static": [
-            [t.header.frame_id, t.child_frame_id] for m in static.all for t in m.transforms
-        ],
-        "target": target,
-        "after": [pose_list(m.header.stamp, m.pose.pose) for m in list(amcl.all)[after_bad:]],
-    }
+    io = shared.LocalizeIO(
+        stamp_ns=stamp_ns,
+        send_raw=lambda: init.publish(b"\x00\x01\x00\x00\x01"),  # CDR too short for the type
+        send_pose=lambda *pose: init.publish(
+            shared.fill_initial_pose(PoseWithCovarianceStamped(), *pose)
+        ),
+        frame="map",
+    )
+    return shared.localize(args, io, amcl, truth, odom, cloud, tf, static)
 
 
 def main():
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--ns", default="")
-    sub = parser.add_subparsers(dest="cmd", required=True)
-    p = sub.add_parser("echo")
-    p.add_argument("--camera", action="store_true")
-    sub.add_parser("odom")
-    p = sub.add_parser("map")
-    p.add_argument("--seconds", type=float, default=0.0)
-    p = sub.add_parser("count")
-    p.add_argument("topics", nargs="+")
-    p.add_argument("--seconds", type=float, default=1.0)
-    p = sub.add_parser("pub")
-    p.add_argument("topic")
-    p.add_argument("kind")
-    p.add_argument("value", nargs="?", default="")
-    p.add_argument("--linger", type=float, default=0.5)
-    p = sub.add_parser("drive")
-    p.add_argument("--linear", type=float, default=0.0)
-    p.add_argument("--angular", type=float, default=0.0)
-    p.add_argument("--seconds", type=float, default=1.0)
-    p.add_argument("--idle", type=float, default=0.0)
-    p = sub.add_parser("sync")
-    p.add_argument("--n", type=int, default=20)
-    p.add_argument("--settle", type=float, default=0.5)
-    p = sub.add_parser("states")
-    p.add_argument("--pause-seconds", type=float, default=0.5)
+    parser, sub = shared.parser(linger=0.5)
+    sub.choices["tutorialloop"].add_argument(
+        "--raw", default=None, help="write the raw CDR of RAW_TOPICS here (JSON)"
+    )
+    sub.add_parser("echo").add_argument("--camera", action="store_true")
     p = sub.add_parser("topics")
     p.add_argument("--seconds", type=float, default=15.0)
     p.add_argument("--expect", nargs="*", default=[])
-    p = sub.add_parser("localize")
-    p.add_argument("--linear", type=float, default=0.28)
-    p.add_argument("--angular", type=float, default=0.2)
-    p.add_argument("--sim-seconds", type=float, default=17.0)
-    p.add_argument("--offset", type=float, default=0.5)
-    p = sub.add_parser("tutorialloop")
-    p.add_argument("--steps", type=int, default=600)
-    p.add_argument("--forward", type=float, default=8.0)
-    p.add_argument("--speed", type=float, default=10.0)
-    p.add_argument("--back-steps", type=int, default=30)
-    p.add_argument("--settle", type=float, default=1.0)
-    p.add_argument("--raw", default=None, help="write the raw CDR of RAW_TOPICS here (JSON)")
     args = parser.parse_args()
     rclpy.init()
     node = Node(
