@@ -104,3 +104,18 @@ def test_ctrl_c_quits_as_q_without_a_traceback_and_keeps_the_bag(tmp_path: Path)
         capture_output=True, text=True, timeout=120, check=False,
     )  # fmt: skip
     assert info.returncode == 0 and "/odom" in info.stdout, info.stdout + info.stderr
+
+
+@pytest.mark.parametrize("command", [["teleop"], ["teleop", "--ros", "1"], ["node"]])
+def test_old_style_env_key_json_is_one_line_naming_env_kwargs(command, capsys):
+    # `node --env KEY=JSON` was the node's form; --env is now the env id, as evaluate's.
+    pytest.importorskip("rosbags")
+    from bubblerob_env import cli
+
+    with pytest.raises(SystemExit) as exit_:
+        cli.main([*command, "--env", "num_obstacles=[0,0]"])
+    assert exit_.value.code == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1, lines
+    assert "--env takes an env id" in lines[0]
+    assert """--env-kwargs '{"num_obstacles": [0,0]}'""" in lines[0], lines[0]
