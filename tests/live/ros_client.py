@@ -1,53 +1,34 @@
 """External ROS 1 nodes for the live tests: run with Debian's /usr/bin/python3 (real rospy).
 
 Each subcommand prints one JSON line on stdout. ``tutorialloop`` is the tutorial's
-``rosBubbleRob2``: forward; for a while after ``sensorTrigger``, back up while turning.
+``rosBubbleRob2``: forward; for a while after ``sensorTrigger``, back up while turning. What does
+not depend on rospy is in ``tests/live_client_support.py``, shared with the ROS 2 client.
 """
 
-import argparse
 import json
 import sys
-import threading
 import time
+from io import BytesIO
+from pathlib import Path
 
 import rospy
-from geometry_msgs.msg import Twist
+from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped, Twist
 from nav_msgs.msg import OccupancyGrid, Odometry
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Bool, Float32, Int32, String
 from tf2_msgs.msg import TFMessage
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tests/: the shared client parts
+import live_client_support as shared  # noqa: E402
+from live_client_support import ns  # noqa: E402
 
-class Counter:
-    """Messages of one topic: count, latest, all (optional)."""
+
+class Counter(shared.MessageCounter):
+    """Messages of one topic (rospy subscriber): count, latest, all (optional)."""
 
     def __init__(self, topic, cls, keep=False):
-        self.cond = threading.Condition()
-        self.count = 0
-        self.latest = None
-        self.all = [] if keep else None
+        super().__init__(topic, keep, timeout=5.0)
         self.sub = rospy.Subscriber(topic, cls, self._cb, tcp_nodelay=True, queue_size=None)
-
-    def _cb(self, msg):
-        with self.cond:
-            self.count += 1
-            self.latest = msg
-            if self.all is not None:
-                self.all.append(msg)
-            self.cond.notify_all()
-
-    def wait(self, count, timeout=5.0):
-        end = time.monotonic() + timeout
-        with self.cond:
-            while self.count < count:
-                left = end - time.monotonic()
-                if left <= 0:
-                    raise SystemExit(
-                        f"timeout waiting for message {count} on {self.sub.name}"
-                        f" (have {self.count})"
-                    )
-                self.cond.wait(left)
-            return self.latest
 
 
 def publisher(topic, cls, latch=False, subscribers=1, timeout=5.0):
@@ -60,8 +41,27 @@ def publisher(topic, cls, latch=False, subscribers=1, timeout=5.0):
     return pub
 
 
-def ns(args, name):
-    return (args.ns.rstrip("/") + "/" + name) if args.ns else "/" + name
+def raw_publisher(topic, cls):
+    """A publisher of ``cls``'s type that sends any bytes (to send malformed messages)."""
+    raw_cls = type(
+        "Raw" + cls.__name__,
+        (rospy.AnyMsg,),
+        {"_type": cls._type, "_md5sum": cls._md5sum, "_full_text": cls._full_text, "__slots__": ()},
+    )
+    pub = publisher(topic, raw_cls)
+
+    def send(raw):
+        msg = raw_cls()
+        msg._buff = raw
+        pub.publish(msg)
+
+    return send
+
+
+def serialized(message):
+    buffer = BytesIO()
+    message.serialize(buffer)
+    return buffer.getvalue()
 
 
 def wait_connected(sub, timeout=5.0):
@@ -78,36 +78,18 @@ def wait_connected(sub, timeout=5.0):
         time.sleep(0.01)
 
 
+def odom_dict(msg):
+    return shared.odom_fields(msg, msg.header.stamp.to_nsec())
+
+
+def twist(v, w):
+    msg = Twist()
+    msg.linear.x, msg.angular.z = v, w
+    return msg
+
+
 def cmd_odom(args):
     return odom_dict(rospy.wait_for_message(ns(args, "odom"), Odometry, timeout=10))
-
-
-def odom_dict(msg):
-    p, q, t = msg.pose.pose.position, msg.pose.pose.orientation, msg.twist.twist
-    import math
-
-    yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
-    return {
-        "x": p.x,
-        "y": p.y,
-        "yaw": yaw,
-        "vx": t.linear.x,
-        "wz": t.angular.z,
-        "stamp": msg.header.stamp.to_nsec(),
-    }
-
-
-def map_dict(msg):
-    i, o = msg.info, msg.info.origin
-    return {
-        "stamp": msg.header.stamp.to_nsec(),
-        "frame_id": msg.header.frame_id,
-        "resolution": i.resolution,
-        "width": i.width,
-        "height": i.height,
-        "origin": [o.position.x, o.position.y, o.orientation.w],
-        "data": list(msg.data),
-    }
 
 
 def cmd_map(args):
@@ -119,7 +101,7 @@ def cmd_map(args):
     static.wait(1, timeout=10)
     time.sleep(args.seconds)
     return {
-        "first": map_dict(first),
+        "first": shared.grid_fields(first, first.header.stamp.to_nsec()),
         "stamps": [m.header.stamp.to_nsec() for m in maps.all],
         "distinct": len({bytes(bytearray(m.data)) for m in maps.all}),
         "tf_static": [
@@ -151,47 +133,19 @@ def cmd_pub(args):
         "twist": (Twist, lambda v: twist(*map(float, v.split(",")))),
     }
     if args.kind == "badtwist":  # 8 bytes, declared as a Twist (48 bytes)
-        cls = type(
-            "BadTwist",
-            (rospy.AnyMsg,),
-            {
-                "_type": Twist._type,
-                "_md5sum": Twist._md5sum,
-                "_full_text": Twist._full_text,
-                "__slots__": (),
-            },
-        )
-        msg = cls()
-        msg._buff = b"\x00" * 8
+        raw_publisher(args.topic, Twist)(b"\x00" * 8)
     else:
         cls, make = kinds[args.kind]
-        msg = make(args.value)
-    pub = publisher(args.topic, cls, latch=True)
-    pub.publish(msg)
+        publisher(args.topic, cls, latch=True).publish(make(args.value))
     time.sleep(args.linger)
     return {"published": args.topic}
-
-
-def twist(v, w):
-    msg = Twist()
-    msg.linear.x, msg.angular.z = v, w
-    return msg
 
 
 def cmd_drive(args):
     """Publish a twist on cmd_vel at 20 Hz for ``--seconds``; odometry then and ``--idle`` later."""
     odom = Counter(ns(args, "odom"), Odometry)
     pub = publisher(ns(args, "cmd_vel"), Twist)
-    end = time.monotonic() + args.seconds
-    rate = rospy.Rate(20)
-    while time.monotonic() < end:
-        pub.publish(twist(args.linear, args.angular))
-        rate.sleep()
-    result = {"moving": odom_dict(odom.wait(1))}
-    if args.idle:
-        time.sleep(args.idle)
-        result["idle"] = odom_dict(odom.latest)
-    return result
+    return shared.drive(args, lambda v, w: pub.publish(twist(v, w)), odom, odom_dict)
 
 
 def cmd_sync(args):
@@ -201,17 +155,9 @@ def cmd_sync(args):
     clock = Counter("/clock", Clock)
     wait_connected(done.sub)
     wait_connected(clock.sub)
-    trigger.publish(Bool(True))
-    done.wait(1)
-    t0 = clock.wait(1).clock.to_nsec()
-    c0 = clock.count
-    for _ in range(args.n):
-        trigger.publish(Bool(True))
-    done.wait(1 + args.n, timeout=20)
-    clock.wait(c0 + args.n)
-    t1 = clock.latest.clock.to_nsec()
-    time.sleep(args.settle)
-    return {"t0": t0, "t1": t1, "done": done.count - 1, "clocks": clock.count - c0}
+    return shared.sync(
+        args, lambda: trigger.publish(Bool(True)), done, clock, lambda m: m.clock.to_nsec()
+    )
 
 
 def cmd_states(args):
@@ -219,21 +165,7 @@ def cmd_states(args):
     state = Counter(ns(args, "simulationState"), Int32, keep=True)
     clock = Counter("/clock", Clock)
     pubs = {e: publisher(ns(args, f"{e}Simulation"), Bool) for e in ("start", "pause", "stop")}
-    state.wait(1)
-    seen = [state.latest.data]
-    paused_clocks = None
-    for event in ("pause", "start", "stop", "start"):
-        before = state.count
-        pubs[event].publish(Bool(True))
-        state.wait(before + 1)
-        seen.append(state.latest.data)
-        if event == "pause":
-            time.sleep(0.2)
-            c = clock.count
-            time.sleep(args.pause_seconds)
-            paused_clocks = clock.count - c
-    time.sleep(0.5)
-    return {"states": seen, "paused_clocks": paused_clocks, "clocks": clock.count}
+    return shared.states(args, state, clock, lambda event: pubs[event].publish(Bool(True)))
 
 
 def wait_recorder(node, timeout=20.0):
@@ -268,86 +200,17 @@ def cmd_tutorialloop(args):
     if args.wait_recorder:
         wait_recorder(args.node)
     start.publish(Bool(True))
-    trig.wait(1)
-    back_steps, command, triggers = 0, None, 0
-    for k in range(args.steps):
-        if trig.latest.data:
-            back_steps = args.back_steps
-            triggers += 1
-        if back_steps > 0:
-            wanted = (-args.speed / 2, -args.speed / 4)
-            back_steps -= 1
-        else:
-            wanted = (args.forward, args.forward)
-        left.publish(Float32(wanted[0]))  # every step, as the tutorial's node does (and the
-        right.publish(Float32(wanted[1]))  # node's watchdog wants)
-        if wanted != command:
-            command = wanted
-            time.sleep(0.005)  # commands and trigger travel on different connections
-        trigger.publish(Bool(True))
-        done.wait(k + 1)
-        trig.wait(k + 2)
-    time.sleep(args.settle)
+
+    def wheels(left_speed, right_speed):
+        left.publish(Float32(left_speed))
+        right.publish(Float32(right_speed))
+
+    triggers = shared.tutorial_loop(args, trig, done, wheels, lambda: trigger.publish(Bool(True)))
     return {"steps": done.count, "collisions": sum(m.data for m in term.all), "triggers": triggers}
-
-
-def pose_tuple(stamp, pose):
-    import math
-
-    p, q = pose.position, pose.orientation
-    yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
-    return [stamp.to_nsec(), p.x, p.y, yaw]
-
-
-def raw_pose_publisher(topic):
-    """A publisher of PoseWithCovarianceStamped that sends any bytes (to send malformed ones)."""
-    from io import BytesIO
-
-    from geometry_msgs.msg import PoseWithCovarianceStamped as Pwcs
-
-    cls = type(
-        "RawPose",
-        (rospy.AnyMsg,),
-        {
-            "_type": Pwcs._type,
-            "_md5sum": Pwcs._md5sum,
-            "_full_text": Pwcs._full_text,
-            "__slots__": (),
-        },
-    )
-    pub = publisher(topic, cls)
-
-    def send(message=None, raw=None):
-        if message is not None:
-            buffer = BytesIO()
-            message.serialize(buffer)
-            raw = buffer.getvalue()
-        msg = cls()
-        msg._buff = raw
-        pub.publish(msg)
-
-    return send
-
-
-def initial_pose(frame, x, y, yaw, variance=0.01):
-    import math
-
-    from geometry_msgs.msg import PoseWithCovarianceStamped
-
-    msg = PoseWithCovarianceStamped()
-    msg.header.frame_id = frame
-    msg.pose.pose.position.x, msg.pose.pose.position.y = x, y
-    msg.pose.pose.orientation.z, msg.pose.pose.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
-    covariance = [0.0] * 36
-    covariance[0] = covariance[7] = covariance[35] = variance
-    msg.pose.covariance = covariance
-    return msg
 
 
 def cmd_localize(args):
     """Drive a circle; /amcl_pose and the truth; malformed /initialpose, then a valid one."""
-    from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped
-
     amcl = Counter(ns(args, "amcl_pose"), PoseWithCovarianceStamped, keep=True)
     truth = Counter(ns(args, "base_pose_ground_truth"), Odometry, keep=True)
     odom = Counter(ns(args, "odom"), Odometry)
@@ -356,45 +219,17 @@ def cmd_localize(args):
     static = Counter("/tf_static", TFMessage, keep=True)
     for c in (amcl, truth, cloud, tf):
         wait_connected(c.sub)
-    send = raw_pose_publisher(ns(args, "initialpose"))
+    send = raw_publisher(ns(args, "initialpose"), PoseWithCovarianceStamped)
     publisher(ns(args, "cmd_vel"), Twist, latch=True).publish(twist(args.linear, args.angular))
-    # Simulated seconds of driving, however fast the node runs on a loaded machine.
-    start = truth.wait(truth.count + 1).header.stamp.to_nsec()
-    deadline = time.monotonic() + 60.0
-    while truth.latest.header.stamp.to_nsec() - start < args.sim_seconds * 1e9:
-        if time.monotonic() > deadline:
-            raise SystemExit("the node did not simulate --sim-seconds within 60 s")
-        time.sleep(0.05)
-    tracked = [pose_tuple(m.header.stamp, m.pose.pose) for m in list(amcl.all)]
-    truths = [pose_tuple(m.header.stamp, m.pose.pose) for m in list(truth.all)]
-    last_odom = pose_tuple(odom.latest.header.stamp, odom.latest.pose.pose)
-    frame = args.frame_prefix + "map"
-    send(raw=b"\x01" * 9)  # too short for the type
-    send(initial_pose(frame, float("nan"), 0.0, 0.0))
-    send(initial_pose("base_link", 0.0, 0.0, 0.0))
-    time.sleep(1.0)
-    after_bad = amcl.count
-    _, x, y, yaw = pose_tuple(truth.latest.header.stamp, truth.latest.pose.pose)
-    target = [x + args.offset, y, yaw]
-    send(initial_pose(frame, *target))
-    amcl.wait(after_bad + 1)
-    time.sleep(1.0)  # poses published before the node took the initial pose come first
-    return {
-        "tracked": tracked,
-        "truth": truths,
-        "odom_last": last_odom,
-        "clouds": cloud.count,
-        "cloud_size": len(cloud.latest.poses),
-        "cloud_frame": cloud.latest.header.frame_id,
-        "amcl_frame": amcl.all[0].header.frame_id,
-        "amcl_covariance": list(amcl.all[-1].pose.covariance),
-        "tf_map_odom": sum(1 for m in tf.all for t in m.transforms if t.header.frame_id == frame),
-        "tf_static": [
-            [t.header.frame_id, t.child_frame_id] for m in static.all for t in m.transforms
-        ],
-        "target": target,
-        "after": [pose_tuple(m.header.stamp, m.pose.pose) for m in list(amcl.all)[after_bad:]],
-    }
+    io = shared.LocalizeIO(
+        stamp_ns=lambda stamp: stamp.to_nsec(),
+        send_raw=lambda: send(b"\x01" * 9),  # too short for the type
+        send_pose=lambda *pose: send(
+            serialized(shared.fill_initial_pose(PoseWithCovarianceStamped(), *pose))
+        ),
+        frame=args.frame_prefix + "map",
+    )
+    return shared.localize(args, io, amcl, truth, odom, cloud, tf, static)
 
 
 def cmd_vrep(args):
@@ -443,48 +278,14 @@ def cmd_vrep(args):
 
 
 def main():
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--ns", default="")
-    sub = parser.add_subparsers(dest="cmd", required=True)
-    sub.add_parser("odom")
-    p = sub.add_parser("map")
-    p.add_argument("--seconds", type=float, default=0.0)
-    p = sub.add_parser("count")
-    p.add_argument("topics", nargs="+")
-    p.add_argument("--seconds", type=float, default=1.0)
-    p = sub.add_parser("pub")
-    p.add_argument("topic")
-    p.add_argument("kind")
-    p.add_argument("value", nargs="?", default="")
-    p.add_argument("--linger", type=float, default=0.3)
-    p = sub.add_parser("drive")
-    p.add_argument("--linear", type=float, default=0.0)
-    p.add_argument("--angular", type=float, default=0.0)
-    p.add_argument("--seconds", type=float, default=1.0)
-    p.add_argument("--idle", type=float, default=0.0)
-    p = sub.add_parser("sync")
-    p.add_argument("--n", type=int, default=20)
-    p.add_argument("--settle", type=float, default=0.5)
-    p = sub.add_parser("states")
-    p.add_argument("--pause-seconds", type=float, default=0.5)
-    p = sub.add_parser("localize")
-    p.add_argument("--linear", type=float, default=0.28)
-    p.add_argument("--angular", type=float, default=0.2)
-    p.add_argument("--sim-seconds", type=float, default=17.0)
-    p.add_argument("--offset", type=float, default=0.5)
-    p.add_argument("--frame-prefix", default="")
+    parser, sub = shared.parser(linger=0.3)
+    sub.choices["localize"].add_argument("--frame-prefix", default="")
+    sub.choices["tutorialloop"].add_argument("--wait-recorder", action="store_true")
+    sub.choices["tutorialloop"].add_argument("--node", default="/bubblerob")
     p = sub.add_parser("vrep")
     p.add_argument("--linear", type=float, default=0.6)
     p.add_argument("--angular", type=float, default=0.4)
     p.add_argument("--seconds", type=float, default=1.5)
-    p = sub.add_parser("tutorialloop")
-    p.add_argument("--steps", type=int, default=600)
-    p.add_argument("--forward", type=float, default=8.0)
-    p.add_argument("--speed", type=float, default=10.0)
-    p.add_argument("--back-steps", type=int, default=30)
-    p.add_argument("--settle", type=float, default=1.0)
-    p.add_argument("--wait-recorder", action="store_true")
-    p.add_argument("--node", default="/bubblerob")
     args = parser.parse_args()
     rospy.init_node("live_test_client", anonymous=True, disable_signals=True)
     result = globals()["cmd_" + args.cmd](args)
