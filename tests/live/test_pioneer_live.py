@@ -32,7 +32,7 @@ NODE_ARGS = (
 @pytest.fixture(scope="module")
 def vrep(master, start_node):
     node = start_node(*NODE_ARGS)
-    got = master.client("vrep", "--linear", "0.6", "--angular", "0.4", "--seconds", "1.0")
+    got = master.client("vrep", "--linear", "0.6", "--angular", "0.4", "--seconds", "0.8")
     assert node.alive(), node.output
     return got
 
@@ -45,7 +45,7 @@ def test_vrep_scan_goes_out_every_4th_step_of_sim_time(vrep):
     assert (vrep["scan_rays"], vrep["scan_frame"]) == (901, "laser_link")
     marks = vrep["marks"]
     scans = between(vrep["scan_stamps"], marks, "start", "off", 0)
-    assert len(scans) >= 5, marks
+    assert len(scans) >= 4, marks
     # One scan per 4 control steps: consecutive scans are 4 steps of simulated time apart...
     assert {b - a for a, b in pairwise(scans)} == {SCAN_EVERY * DT_NS}
     # ... while /clock ticks every step: 4 ticks per scan between the first and the last.
@@ -73,9 +73,9 @@ def test_vrep_switches_turn_the_laser_and_camera_off_and_on(vrep):
         marks["off_end"],
     )
     assert (scan_off_end - scan_off, image_off_end - image_off) == (0, 0), marks
-    assert time_off_end - time_off >= 10, marks  # the simulation ran on meanwhile
+    assert time_off_end - time_off >= 8, marks  # the simulation ran on meanwhile
     (scan_on, image_on, _), (scan_end, image_end, _) = marks["on"], marks["on_end"]
-    assert scan_end - scan_on >= 3 and image_end - image_on >= 12, marks
+    assert scan_end - scan_on >= 2 and image_end - image_on >= 8, marks
 
 
 def test_vrep_cmd_vel_drives_forward_and_counter_clockwise(vrep):
@@ -83,10 +83,10 @@ def test_vrep_cmd_vel_drives_forward_and_counter_clockwise(vrep):
     assert (before["x"], before["y"], before["yaw"]) == pytest.approx((0, 0, 0), abs=1e-3)
     dx, dy = after["x"] - before["x"], after["y"] - before["y"]
     forward = dx * math.cos(before["yaw"]) + dy * math.sin(before["yaw"])
-    # 1 s at 0.6 m/s and 0.4 rad/s (the client's wall clock; the node at real time): about 0.6 m
-    # along an arc turning 0.4 rad to the left.
-    assert forward > 0.35, (before, after)
-    assert math.remainder(after["yaw"] - before["yaw"], 2 * math.pi) > 0.2, (before, after)
+    # 0.8 s at 0.6 m/s and 0.4 rad/s (the client's wall clock; the node at real time): about
+    # 0.48 m along an arc turning 0.32 rad to the left.
+    assert forward > 0.3, (before, after)
+    assert math.remainder(after["yaw"] - before["yaw"], 2 * math.pi) > 0.15, (before, after)
     assert after["vx"] == pytest.approx(0.6, abs=0.1) and after["wz"] == pytest.approx(0.4, abs=0.1)
 
 
@@ -102,7 +102,7 @@ link = RosLink(1, topics_preset(args.topics, args.namespace), *_ros_limits(args)
 state = TeleopState()
 for key in b"www":  # 0.3 of the top speed forward, as the keys set it
     state.press(key)
-end = time.monotonic() + 1.0
+end = time.monotonic() + 0.6
 while time.monotonic() < end:
     link.send(state)
     time.sleep(0.05)
