@@ -234,3 +234,25 @@ def test_launch_file_puts_rviz_in_the_robots_namespace_and_frames(ns, rviz_names
     assert nodes["rviz"][0] == rviz_namespace
     assert nodes["rviz"][1].endswith(f"bubblerob.rviz -f {fixed_frame}")
     assert "--no-clock" in nodes["r"][1]  # clock:=false: another robot publishes /clock
+
+
+@requires_ros
+def test_launch_file_passes_env_env_kwargs_and_topics_to_the_node():
+    # roslaunch splits a node's args with shlex: the JSON object stays one argument.
+    import shlex
+
+    from bubblerob_env.cli import build_parser
+
+    kwargs = '{"num_obstacles": [0, 0], "start_pose": [0, 0, 0]}'
+    result = subprocess.run(
+        ["/usr/bin/python3", "-c", LAUNCH_NODES, "env:=PioneerP3DX-v0", "topics:=vrep",
+         f"env_kwargs:={kwargs}"],
+        cwd=LAUNCH_DIR,
+        env={"PATH": "/usr/bin:/bin", "HOME": "/tmp", "ROS_PACKAGE_PATH": str(LAUNCH_DIR)},
+        capture_output=True, text=True, timeout=60, check=False,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    line = next(line for line in result.stdout.splitlines() if line.startswith("bubblerob "))
+    args = build_parser().parse_args(["node", *shlex.split(line.split(maxsplit=2)[2])])
+    assert (args.env, args.topics) == ("PioneerP3DX-v0", "vrep")
+    assert args.env_kwargs == {"num_obstacles": [0, 0], "start_pose": [0, 0, 0]}
