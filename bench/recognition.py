@@ -53,9 +53,9 @@ def _speed(frames: list[tuple[LabelledFrame, Recogniser]]) -> float:
     return count / work
 
 
-def evaluate(seeds: range, size: int) -> dict[str, Any]:
+def evaluate(seeds: range, size: int, env_id: str = "BubbleRob-v0") -> dict[str, Any]:
     """Scores (overall and per block of seeds) and speed for one seed range and image size."""
-    frames = list(labelled_frames(seeds, size, size))
+    frames = list(labelled_frames(seeds, size, size, env_id=env_id))
     total, blocks = Score(), dict[int, Score]()
     for frame, recogniser in frames:
         detections = recogniser(frame.image)
@@ -92,6 +92,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--sizes", type=int, nargs="+", default=[64, 128])
     parser.add_argument("--quick", action="store_true", help="2 seeds of each range, 64x64")
     parser.add_argument("--json", action="store_true", help="one JSON list instead of a table")
+    parser.add_argument("--env", default="BubbleRob-v0", help="the robot's env id")
     args = parser.parse_args(argv)
     for size in args.sizes:
         if not 16 <= size <= 1024:
@@ -101,7 +102,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.quick:
         seed_ranges = [range(r.start, min(r.stop, r.start + 2)) for r in seed_ranges]
         sizes = [64]
-    results = [evaluate(seeds, size) for seeds in seed_ranges for size in sizes]
+    results = [evaluate(seeds, size, args.env) for seeds in seed_ranges for size in sizes]
     if args.json:
         print(json.dumps(results))
         return 0

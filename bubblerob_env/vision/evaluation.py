@@ -40,10 +40,18 @@ class LabelledFrame:
 
 
 def labelled_frames(
-    seeds: Iterable[int], width: int = 64, height: int = 64, steps: int = 60, every: int = 10
+    seeds: Iterable[int],
+    width: int = 64,
+    height: int = 64,
+    steps: int = 60,
+    every: int = 10,
+    env_id: str = "BubbleRob-v0",
 ) -> Iterator[tuple[LabelledFrame, Recogniser]]:
-    """Frames of each seed's episode with their ground truth, and a recogniser for the camera."""
-    env = gym.make("BubbleRob-v0", camera_width=width, camera_height=height, obstacle_colours=True)
+    """Frames of each seed's episode with their ground truth, and a recogniser for the camera.
+
+    ``env_id``: the robot's env (``PioneerP3DX-v0``: the Pioneer in its arena).
+    """
+    env = gym.make(env_id, camera_width=width, camera_height=height, obstacle_colours=True)
     core = env.unwrapped
     truth_camera = GroundTruthCamera(core.model, core.camera_spec)  # type: ignore[attr-defined]
     try:
