@@ -14,8 +14,9 @@ VENV_ROS2 ?= .venv-ros2
 VENV_CLIENTS ?= .venv-clients
 # RL libraries tested in a venv of their own (not dependencies: they pin their own ranges).
 # Tianshou 2.0.1's high-level API imports its [eval] extra's modules (joblib, scipy).
-CLIENT_PACKAGES := "tianshou[eval]==2.0.1"
-CLIENT_TESTS := tests/test_clients_tianshou.py
+# ray[rllib] 2.60 pins gymnasium 1.2.2, which the project supports.
+CLIENT_PACKAGES := "tianshou[eval]==2.0.1" "ray[rllib]==2.60.0"
+CLIENT_TESTS := tests/test_clients_tianshou.py tests/ray/test_rllib.py
 PYTEST_ARGS ?=
 DEMO_ARGS ?=
 TORCH_CPU_INDEX ?= https://download.pytorch.org/whl/cpu
@@ -41,7 +42,7 @@ help:
 	echo "make test        set up for the tests (+ test packages, torch CPU, $(VENV) with .[all],"
 	echo "                 $(VENV_ROS2) with .[ros2] and tf2_msgs), run pytest (PYTEST_ARGS=...)"
 	echo "make demo-setup, make test-setup: the set-up alone"
-	echo "make test-clients: Tianshou's tests in $(VENV_CLIENTS) (not run by make test)"
+	echo "make test-clients: Tianshou's and RLlib's tests in $(VENV_CLIENTS) (make test skips them)"
 	echo "A second run skips what is installed, and says so."
 
 demo: demo-setup
@@ -61,7 +62,7 @@ test-setup: demo-setup debs-test torch venv-all venv-ros2 tf2-msgs
 # own venv with CPU torch, the project and those libraries.
 test-clients: demo-setup
 	@if [ ! -x $(VENV_CLIENTS)/bin/python ]; then $(PYTHON) -m venv $(VENV_CLIENTS); fi
-	if $(VENV_CLIENTS)/bin/python -c "import torch, tianshou" 2>/dev/null; then
+	if $(VENV_CLIENTS)/bin/python -c "import torch, tianshou, ray.rllib" 2>/dev/null; then
 	  echo "setup: torch and the clients are in $(VENV_CLIENTS): skipped"
 	else
 	  $(VENV_CLIENTS)/bin/pip install torch --index-url $(TORCH_CPU_INDEX) --timeout 20 \
