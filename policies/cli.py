@@ -24,9 +24,11 @@ def add_subcommands(subparsers: Any) -> None:
     """Register ``evaluate`` and ``demo``."""
     parser = subparsers.add_parser(
         "evaluate",
-        help="evaluate policies on held-out seeds and print one table",
-        description="Run each policy for the same held-out episodes (seeds SEED, SEED+1, ...) "
-        "and print one table; optionally record one episode as a video.",
+        help="evaluate policies on validation or test seeds and print one table",
+        description="Run each policy for the same episodes (seeds SEED, SEED+1, ...; by "
+        "default validation seeds from 1000, never started by training) and print one table "
+        "with the success rate's Wilson 95% interval; optionally record one episode as a video. "
+        "Choose on validation seeds; report on --split test (policies/protocol.py).",
     )
     parser.add_argument(
         "--policy",

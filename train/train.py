@@ -371,7 +371,9 @@ def build_parser(prog: str = "python -m train") -> argparse.ArgumentParser:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The options of ``python -m train`` and ``bubblerob train``."""
-    parser.add_argument("--algo", choices=ALGOS, default="ppo")
+    parser.add_argument(
+        "--algo", choices=ALGOS, default="ppo", help="the SB3 algorithm (default: ppo)"
+    )
     parser.add_argument("--env", default="BubbleRob-v0", help="env id (default BubbleRob-v0)")
     parser.add_argument("--timesteps", type=int, help="override n_timesteps from the YAML")
     parser.add_argument("--n-envs", type=int, help="override n_envs from the YAML")
@@ -385,9 +387,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--torch-threads", type=int, default=DEFAULT_TORCH_THREADS, help="torch's CPU threads"
     )
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        help="the run's seed: torch, and env i's first episode is seed SEED+i, which stays "
+        "below 1000, the first validation seed (policies/protocol.py) (default: 0)",
+    )
     parser.add_argument("--eval-freq", type=int, default=50_000, help="env steps between evals")
-    parser.add_argument("--eval-episodes", type=int, default=10)
+    parser.add_argument(
+        "--eval-episodes",
+        type=int,
+        default=10,
+        help="episodes of each evaluation: validation seeds 1000, 1001, ..., the same ones "
+        "every time; the best model is chosen on them (default: 10)",
+    )
     parser.add_argument("--out", type=Path, help="output folder (default runs/<algo>-<env>-<seed>)")
     parser.add_argument(
         "--set",
