@@ -9,9 +9,12 @@ import signal
 import sys
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from bubblerob_env.cli import add_env_arguments, make_env
+
+if TYPE_CHECKING:
+    from bubblerob_env.ros.live.node import SimNode
 
 __all__ = ["LAUNCH_DIR", "add_node_subcommand", "parse_rate"]
 
@@ -176,16 +179,10 @@ def _node(args: argparse.Namespace) -> int:
     problem = _usage_error(args)
     if problem is not None:
         return fail(problem)
-    kwargs: dict[str, Any] = dict(args.env_kwargs)
+    kwargs = _env_kwargs(args)
     if kwargs.get("action_type", "wheels") != "wheels":
         return fail("the node drives the wheels: action_type must be 'wheels' (cmd_vel is mapped)")
     kwargs["action_type"] = "wheels"
-    if args.camera:
-        kwargs["camera"] = True
-    if args.camera_size is not None:
-        kwargs["camera_width"], kwargs["camera_height"] = args.camera_size
-    if args.max_steps is not None:
-        kwargs["max_episode_steps"] = args.max_steps
     try:
         topics = topics_preset(args.topics, args.namespace)
         if args.no_clock:
@@ -237,7 +234,23 @@ def _node(args: argparse.Namespace) -> int:
         signal.signal(signal.SIGTERM, previous)
         node.close()
         backend.shutdown("exiting")
-    lost = getattr(backend, "lost_master", None)
+    return _report(node, getattr(backend, "lost_master", None))
+
+
+def _env_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+    """``--env-kwargs``, then ``--camera``, ``--camera-size`` and ``--max-steps``."""
+    kwargs: dict[str, Any] = dict(args.env_kwargs)
+    if args.camera:
+        kwargs["camera"] = True
+    if args.camera_size is not None:
+        kwargs["camera_width"], kwargs["camera_height"] = args.camera_size
+    if args.max_steps is not None:
+        kwargs["max_episode_steps"] = args.max_steps
+    return kwargs
+
+
+def _report(node: SimNode, lost: str | None) -> int:
+    """The node's closing lines; exit 1 if it lost its master, else 0."""
     if lost:
         print(f"bubblerob node: {lost}; exiting (start it again with the master)", flush=True)
     first, last = node.first_step_at, node.last_step_at
