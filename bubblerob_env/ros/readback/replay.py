@@ -214,8 +214,9 @@ def replay_bag(path: str | Path, max_episodes: int | None = None) -> ReplayRepor
         finally:
             if env is not None:
                 env.close()
-        after = max_episodes is not None and max_episodes < len(episodes)
-        stop = int(episodes[max_episodes]["start_time_ns"]) if after else None
+        stop = None
+        if max_episodes is not None and max_episodes < len(episodes):
+            stop = int(episodes[max_episodes]["start_time_ns"])
         others = _not_resimulated(reader, compared_topics, stop)
     return ReplayReport(root, episodes_done, steps, compared, None, unfinished, others)
 
