@@ -15,6 +15,7 @@ import subprocess
 import sys
 from itertools import pairwise
 
+import numpy as np
 import pytest
 from live_helpers import requires_ros
 
@@ -51,8 +52,15 @@ def test_vrep_scan_goes_out_every_4th_step_of_sim_time(vrep):
     # ... while /clock ticks every step: 4 ticks per scan between the first and the last.
     clocks = [c for c in vrep["clocks"] if scans[0] <= c <= scans[-1]]
     assert len(clocks) == SCAN_EVERY * (len(scans) - 1) + 1, (len(clocks), len(scans))
-    # /simTime (std_msgs/Float32) goes out every step too, as /clock does.
+    # /simTime (std_msgs/Float32) goes out every step too, as /clock does, and holds the
+    # simulated time: one control step more each time (float32 steps of 0.05 s).
     assert abs(len(vrep["sim_times"]) - len(vrep["clocks"])) <= 3
+    # (An episode's reset starts it from 0 again.)
+    times = np.array(vrep["sim_times"], dtype=np.float64)
+    steps, after = np.diff(times), times[1:]
+    assert len(steps) >= 4
+    assert np.all(np.isclose(steps, DT_NS * 1e-9, atol=1e-5) | (after == 0.0)), steps[:8]
+    assert np.count_nonzero(after == 0.0) <= 1
     # Switched off and on again, the scans keep the same 4-step grid.
     first = vrep["scan_stamps"][0]
     assert all((s - first) % (SCAN_EVERY * DT_NS) == 0 for s in vrep["scan_stamps"])

@@ -130,6 +130,11 @@ def test_time_increases_strictly_across_episodes(tmp_path, fmt, compression):
     ):
         assert stamp == start  # episode 2 starts one control step after episode 1 ended
         assert start == messages["/clock"][clock.index(start) - 1][0] + dt
+    # /simulationTime is the simulated time of the episode (CoppeliaSim's simTime: 0 at the
+    # start of a simulation, one dt per step), as float32; before 2026-11-25 it held the stamp.
+    expected = np.tile(np.arange(9) * env.unwrapped.dt, 3).astype(np.float32)
+    sim_time = np.array([m.data for _, m in messages["/simulationTime"]], dtype=np.float32)
+    np.testing.assert_array_equal(sim_time, expected)
 
 
 def test_actions_are_logged_when_sent_and_results_after_the_step(record):

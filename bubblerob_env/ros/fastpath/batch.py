@@ -88,7 +88,7 @@ class FrameBatch:
         # the whole batch.
         scalars = (
             stamp_ns, seq, action_stamp_ns, float(reward), bool(terminated), bool(truncated),
-            bool(info["proximity_triggered"]),
+            bool(info["proximity_triggered"]), float(info["sim_time"]),
         )  # fmt: skip
         image = None
         if self._camera:
@@ -117,7 +117,7 @@ class FrameBatch:
         the batch's buffer: use them before the next :meth:`add`.
         """
         rows = self._rows[: self._count]
-        stamp, seq, action_stamp, reward, terminated, truncated, triggered = zip(
+        stamp, seq, action_stamp, reward, terminated, truncated, triggered, sim_time = zip(
             *self._scalars, strict=True
         )
         images, self._count, self._scalars, self._images = self._images, 0, [], []
@@ -138,7 +138,7 @@ class FrameBatch:
         linear, angular = commanded_twist(specs, raw, left, right)
         columns: dict[str, NDArray[Any]] = {
             "sec": sec, "nanosec": nanosec, "seq": np.array(seq, dtype=np.int64) & 0xFFFFFFFF,
-            "sim_time": stamps * 1e-9, "proximity": proximity,
+            "sim_time": np.array(sim_time, dtype=np.float64), "proximity": proximity,
             "triggered": np.array(triggered, dtype=bool),
             "px": position[0], "py": position[1], "pz": position[2],
             "qw": quaternion_wxyz[0], "qx": quaternion_wxyz[1],

@@ -156,7 +156,7 @@ class FrameValues:
                 info["odom_x"], info["odom_y"], pz, 0.0, 0.0, math.sin(half_yaw), math.cos(half_yaw)
             )  # fmt: skip
         args: tuple[Any, ...] = (
-            sec, nanosec, seq & 0xFFFFFFFF, stamp_ns * 1e-9, proximity,
+            sec, nanosec, seq & 0xFFFFFFFF, float(info["sim_time"]), proximity,
             bool(info["proximity_triggered"]), px, py, pz, qx, qy, qz, qw,
             *info["body_twist"].tolist(), *odometry,
         )  # fmt: skip
