@@ -119,7 +119,8 @@ def test_make_test_clients_runs_the_client_tests_that_make_test_skips():
     assert "--index-url https://download.pytorch.org/whl/cpu" in dry_run
     assert '"tianshou[eval]==2.0.1" "ray[rllib]==2.60.0"' in dry_run
     tests = "tests/test_clients_tianshou.py tests/ray/test_rllib.py"
-    assert dry_run.rstrip().endswith(f".venv-clients/bin/python -m pytest {tests}")
+    assert dry_run.rstrip().endswith(f" {tests}")
+    assert ".venv-clients/bin/python -m pytest tests/test_env.py " in dry_run
     skip = subprocess.run(
         [sys.executable, "-m", "pytest", "-q", "-rs", *tests.split()],
         cwd=ROOT, capture_output=True, text=True, timeout=300, check=False,
