@@ -1,23 +1,15 @@
-"""``bubblerob evaluate``, ``demo`` and ``teleop``: a wrong policy, env or --out is one line."""
+"""``bubblerob evaluate``, ``demo`` and ``teleop``: a wrong policy, env or --out is one line.
+
+Run in this process (:mod:`cli_usage`: an exception other than ``SystemExit`` is the traceback a
+user would see and fails the test); tests/test_cli_usage.py runs teleop's refusals as a process.
+"""
 
 from __future__ import annotations
 
-import subprocess
-import sys
-
 import pytest
+from cli_usage import run
 
 pytest.importorskip("policies")
-
-
-def _bubblerob(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "bubblerob_env.cli", *args],
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=False,
-    )
 
 
 @pytest.mark.parametrize(
@@ -28,22 +20,32 @@ def _bubblerob(*args: str) -> subprocess.CompletedProcess[str]:
         (["evaluate", "--policy", "missing.zip", "--episodes", "1"], "missing.zip"),
     ],
 )
-def test_a_wrong_policy_is_one_line(args, says):
-    result = _bubblerob(*args)
-    assert result.returncode == 1
-    assert "Traceback" not in result.stderr and result.stderr.count("\n") == 1, result.stderr
-    assert result.stderr.startswith(f"bubblerob {args[0]}: ") and says in result.stderr
+def test_a_wrong_policy_is_one_line(args, says, capsys):
+    result = run(args, capsys)
+    assert result.code == 1
+    assert "Traceback" not in result.err and result.err.count("\n") == 1, result.err
+    assert result.err.startswith(f"bubblerob {args[0]}: ") and says in result.err
 
 
-def test_an_unusable_demo_out_is_one_line(tmp_path):
+def test_an_unusable_demo_out_is_one_line(tmp_path, capsys):
     blocker = tmp_path / "a_file"
     blocker.write_text("not a directory")
-    result = _bubblerob(
-        "demo", "--policy", "reactive", "--episodes", "1", "--no-video", "--out", str(blocker / "x")
+    result = run(
+        [
+            "demo",
+            "--policy",
+            "reactive",
+            "--episodes",
+            "1",
+            "--no-video",
+            "--out",
+            str(blocker / "x"),
+        ],
+        capsys,
     )
-    assert result.returncode == 1
-    assert "Traceback" not in result.stderr, result.stderr
-    assert result.stderr.startswith("bubblerob demo: ") and str(blocker) in result.stderr
+    assert result.code == 1
+    assert "Traceback" not in result.err, result.err
+    assert result.err.startswith("bubblerob demo: ") and str(blocker) in result.err
 
 
 @pytest.mark.parametrize(
@@ -56,31 +58,33 @@ def test_an_unusable_demo_out_is_one_line(tmp_path):
         (["teleop", "--ros", "1", "--env-kwargs", '{"arena_size": 3}'], "local simulation"),
     ],
 )
-def test_a_bad_env_is_one_line_exit_2(args, says):
-    result = _bubblerob(*args)
-    assert result.returncode == 2, result.stderr
-    assert result.stderr.count("\n") == 1 and says in result.stderr, result.stderr
-    assert result.stderr.startswith(f"bubblerob {args[0]}: ")
+def test_a_bad_env_is_one_line_exit_2(args, says, capsys):
+    result = run(args, capsys)
+    assert result.code == 2, result.err
+    assert result.err.count("\n") == 1 and says in result.err, result.err
+    assert result.err.startswith(f"bubblerob {args[0]}: ")
 
 
-def test_demo_makes_the_env_its_env_kwargs_name(tmp_path):
+def test_demo_makes_the_env_its_env_kwargs_name(tmp_path, capsys):
     kwargs = '{"arena_size": 3.0, "max_episode_steps": 20}'
-    result = _bubblerob(
-        "demo", "--policy", "laser", "--episodes", "1", "--no-video", "--env-kwargs", kwargs,
-        "--out", str(tmp_path),
+    result = run(
+        ["demo", "--policy", "laser", "--episodes", "1", "--no-video", "--env-kwargs", kwargs,
+         "--out", str(tmp_path)],
+        capsys,
     )  # fmt: skip
-    assert result.returncode == 0, result.stderr
-    row = result.stdout.splitlines()[1].split()
-    assert row[0] == "laser" and row[5] == "20"  # the time limit given, not the default 1000
-    info = _bubblerob("info", str(tmp_path / "bubblerob_demo_laser"))
-    assert info.returncode == 0 and "arena_size" in info.stdout and "3.0" in info.stdout
+    assert result.code == 0, result.err
+    header, row = (line.split() for line in result.out.splitlines()[:2])
+    length = row[header.index("length")]
+    assert row[0] == "laser" and length == "20"  # the time limit given, not the default 1000
+    info = run(["info", str(tmp_path / "bubblerob_demo_laser")], capsys)
+    assert info.code == 0 and "arena_size" in info.out and "3.0" in info.out
 
 
-def test_teleop_will_not_record_over_a_bag(tmp_path):
+def test_teleop_will_not_record_over_a_bag(tmp_path, capsys):
     (tmp_path / "drive").mkdir()
-    result = _bubblerob("teleop", "--record", str(tmp_path / "drive"))
-    assert result.returncode == 2, result.stderr
+    result = run(["teleop", "--record", str(tmp_path / "drive")], capsys)
+    assert result.code == 2, result.err
     assert (
-        result.stderr
+        result.err
         == f"bubblerob teleop: bag {tmp_path / 'drive'} already exists; --record another path\n"
     )
