@@ -12,6 +12,7 @@ import yaml
 
 from policies import BUILTIN_POLICIES, load_policy
 from policies.evaluation import DEFAULT_EVAL_SEED, run_episode, summarize
+from policies.protocol import VALIDATION
 from train import load_hyperparams
 from train.train import DEFAULT_TORCH_THREADS, DEFAULT_VEC_ENV
 
@@ -105,13 +106,15 @@ def test_missing_model_file_is_named():
         load_policy("nowhere/model.zip")
 
 
-# Seeds that neither trained the shipped policy (seeds 0..n_envs-1, then unseeded resets; its
-# periodic evaluation from 1,000,000) nor chose it (README's table, seeds 1000-1099).
+# Validation seeds (policies/protocol.py) that neither trained the shipped policy (seeds
+# 0..n_envs-1, then unseeded resets) nor chose it (seeds 1000-1099). Not test seeds: a test
+# looks at its seeds every run.
 HELD_OUT_SEED = 2000
 
 
 def test_shipped_ppo_avoids_obstacles_on_held_out_seeds():
     assert HELD_OUT_SEED >= DEFAULT_EVAL_SEED + 100
+    assert HELD_OUT_SEED in VALIDATION
     env = gym.make("BubbleRob-v0")
     policy = load_policy("ppo", env)
     episodes = [run_episode(env, policy, seed=HELD_OUT_SEED + k) for k in range(5)]
