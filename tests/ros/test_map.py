@@ -16,8 +16,6 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
-import sys
 import textwrap
 from pathlib import Path
 from typing import Any
@@ -25,6 +23,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import pytest
+from cli_usage import run
 from ros_helpers import missing_debian_ros, run_debian
 from rosbags.highlevel import AnyReader
 from test_solid_world import HALF, WALL_HALF_THICKNESS, obstacle_shape, shape_sdf, wall_prisms
@@ -257,19 +256,16 @@ def test_a_topic_set_without_map_writes_none(tmp_path):
     [("record", "0"), ("record", "-0.05"), ("record", "2"), ("record", "nan"),
      ("record", "abc"), ("node", "0.001"), ("node", "x")],
 )  # fmt: skip
-def test_bad_map_resolution_is_one_line(tmp_path, command, value):
+def test_bad_map_resolution_is_one_line(tmp_path, capsys, command, value):
     args = ["--policy", "reactive", "--out", str(tmp_path), "--no-progress"]
     if command == "node":
         args = ["--master-timeout", "0.1"]  # the value is checked before ROS starts
-    result = subprocess.run(
-        [sys.executable, "-m", "bubblerob_env.cli", command, *args, "--map-resolution", value],
-        capture_output=True, text=True, timeout=120, check=False,
-    )  # fmt: skip
-    assert result.returncode == 2, result.stderr
-    assert "Traceback" not in result.stderr
-    lines = [line for line in result.stderr.splitlines() if line.strip()]
-    assert len(lines) == 1, result.stderr
-    assert value in lines[0] and "0.005" in lines[0] and "1" in lines[0], lines[0]
+    result = run([command, *args, "--map-resolution", value], capsys)  # in process: cli_usage
+    assert result.code == 2, result.err
+    assert "Traceback" not in result.err
+    assert len(result.lines) == 1, result.err
+    line = result.lines[0]
+    assert value in line and "0.005" in line and "1" in line, line
     assert not list(tmp_path.iterdir())  # no bag left behind
 
 
@@ -298,14 +294,13 @@ def test_map_packer_bytes_equal_rosbags_serialisation(distro):
     env.close()
 
 
-def test_record_cli_takes_a_map_resolution(tmp_path):
-    result = subprocess.run(
-        [sys.executable, "-m", "bubblerob_env.cli", "record", "--policy", "reactive",
-         "--max-steps", "3", "--format", "ros1", "--out", str(tmp_path), "--no-progress",
-         "--map-resolution", "0.1"],
-        capture_output=True, text=True, timeout=120, check=False,
+def test_record_cli_takes_a_map_resolution(tmp_path, capsys):
+    result = run(
+        ["record", "--policy", "reactive", "--max-steps", "3", "--format", "ros1",
+         "--out", str(tmp_path), "--no-progress", "--map-resolution", "0.1"],
+        capsys,
     )  # fmt: skip
-    assert result.returncode == 0, result.stderr
+    assert result.code == 0, result.err
     report = read_with_rosbags(tmp_path / "bubblerob_reactive_seed0.bag")
     ((message,),) = [report["maps"]]
     assert (message["width"], message["height"]) == (42, 42)
