@@ -1,4 +1,7 @@
-"""The benchmarks run (smoke only: speed is measured by running them, never by tests)."""
+"""The benchmarks run (smoke only: speed is measured by running them, never by tests).
+
+train_speed.py runs once, with ``--vec-env batched``, in tests/test_vector_bench.py.
+"""
 
 from __future__ import annotations
 
@@ -16,7 +19,6 @@ ROOT = Path(__file__).resolve().parents[1]
     [
         ("env_speed.py", ["laser 360, no camera", "engine floor:", "naive floor:", "Ant-v5"]),
         ("record_speed.py", ["mcap", "ros1", "sqlite3"]),
-        ("train_speed.py", ["HalfCheetah-v5, 1 env (anchor)", "2 envs, SubprocVecEnv"]),
         ("soak.py", ["undetected penetration", "memory growth after warm-up", "PASSED"]),
         ("fast_core.py", ["BubbleRob batch N=64, 2 threads", "one thread to two", "machine:"]),
         ("localisation.py", ["| 0-1 | 2 |", "| 7000-7001 | 2 |", "sim s per CPU s"]),

@@ -28,6 +28,9 @@ def test_vector_speed_prints_its_table():
         assert row in out
 
 
-def test_train_speed_has_the_native_batch_row():
+def test_train_speed_prints_its_table_with_the_native_batch_row():
+    # The one run of train_speed.py (its default, --vec-env dummy, differs only in part 1's envs).
     out = _run(str(ROOT / "bench" / "train_speed.py"), "--quick", "--vec-env", "batched")
     assert "8 envs, native batch" in out and "batched envs" in out
+    for row in ("HalfCheetah-v5, 1 env (anchor)", "2 envs, SubprocVecEnv", "8 envs, DummyVecEnv"):
+        assert row in out, f"{row!r} missing from\n{out}"
