@@ -153,7 +153,12 @@ def _write_per_episode(path: Path, results: list[EvalResult]) -> None:
     import json
 
     records = {r.policy: list(r.per_episode) for r in results}
-    path.write_text(json.dumps(records, indent=1) + "\n")
+    # One episode a line: a 1000-episode file stays readable and diffs by episode.
+    policies = [
+        f"{json.dumps(name)}: [\n" + ",\n".join(json.dumps(e) for e in episodes) + "\n]"
+        for name, episodes in records.items()
+    ]
+    path.write_text("{\n" + ",\n".join(policies) + "\n}\n")
     print(f"wrote {path}: {sum(len(v) for v in records.values())} episodes")
 
 

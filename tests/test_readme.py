@@ -331,6 +331,8 @@ def test_readme_policy_command_reproduces_its_episodes(tmp_path):
     for policy, records in json.loads((tmp_path / "first.json").read_text()).items():
         _assert_same_episodes(records, stored[policy][:2])
     for policy, records in stored.items():
+        if policy == "random":  # one action stream over the run's episodes: only from the start
+            continue
         picked = records[137::167]  # 6 episodes, picked by position, not by outcome
         again = [r for p in picked for r in evaluate(policy, 1, p["seed"]).per_episode]
         _assert_same_episodes(again, picked)
