@@ -19,7 +19,6 @@ import sys
 from pathlib import Path
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
@@ -126,13 +125,7 @@ def map_bag(
                 elif transform.child_frame_id.endswith("base_link"):
                     poses[_stamp(transform.header)] = pose
     if recorded is None:
-        if env_id is not None or env_kwargs is not None:
-            meta = {
-                **meta,
-                "env_id": env_id or meta.get("env_id"),
-                "env_kwargs": meta.get("env_kwargs") if env_kwargs is None else env_kwargs,
-            }
-        truth, source = _simulated(meta, resolution), ""
+        truth, source = _simulated(meta, resolution, env_id, env_kwargs), ""
     else:
         truth, source = recorded, "the bag's /map"
     mapper = LogOddsMapper(truth)
@@ -165,17 +158,19 @@ def _grid(message: Any, resolution: float) -> Grid | None:
     return Grid(data.copy(), origin, resolution)
 
 
-def _simulated(meta: dict[str, Any], resolution: float) -> Grid:
+def _simulated(
+    meta: dict[str, Any],
+    resolution: float,
+    env_id: str | None = None,
+    env_kwargs: dict[str, Any] | None = None,
+) -> Grid:
     """The ground truth of the episode ``meta`` describes, from its env re-created and reset."""
+    from bubblerob_env.ros.readback.episode_env import make_episode_env
+
     try:
-        kwargs = {**(meta.get("env_kwargs") or {}), "render_mode": None}
-        env = gym.make(meta["env_id"], **kwargs)
-    except (gym.error.Error, KeyError, TypeError, ValueError) as error:
-        raise MapError(
-            f"episode {meta.get('episode')}'s env {meta.get('env_id')!r} cannot be made again "
-            f"for the ground truth ({type(error).__name__}: {error}); --env ID and "
-            "--env-kwargs JSON name one that can"
-        ) from None
+        env = make_episode_env(meta, MapError, env_id, env_kwargs)
+    except MapError as error:
+        raise MapError(f"{error}; --env ID and --env-kwargs JSON name one that can") from None
     try:
         env.reset(seed=meta.get("seed"), options=meta.get("options"))
         return episode_grid(env, resolution)

@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
 from bubblerob_env.ros.messages.topics import MSGTYPES, Topics
+from bubblerob_env.ros.readback.episode_env import make_episode_env
 from bubblerob_env.ros.readback.layout import bag_root
 from bubblerob_env.ros.readback.summary import find_episodes, open_reader
 from bubblerob_env.vision.ground_truth import GroundTruthCamera, label_segmentation
@@ -76,15 +77,7 @@ class DetectReport:
 
 
 def _make_env(meta: dict[str, Any]) -> gym.Env[Any, Any]:
-    kwargs = dict(meta.get("env_kwargs") or {})
-    kwargs["render_mode"] = None
-    try:
-        return gym.make(meta["env_id"], max_episode_steps=meta.get("max_episode_steps"), **kwargs)
-    except (gym.error.Error, TypeError, ValueError) as error:
-        raise DetectError(
-            f"episode {meta.get('episode')}'s env {meta.get('env_id')} cannot be made again "
-            f"from the bag's metadata: {error}"
-        ) from None
+    return make_episode_env(meta, DetectError)
 
 
 def _recorded(reader: Any, topic: str, start: int, stop: int | None) -> list[Any]:

@@ -22,6 +22,7 @@ from bubblerob_env.ros.fastpath.framing import Record
 from bubblerob_env.ros.fastpath.serializer import FrameSerializer
 from bubblerob_env.ros.messages.distros import deserialize
 from bubblerob_env.ros.messages.topics import MSGTYPES, Topics
+from bubblerob_env.ros.readback.episode_env import make_episode_env
 from bubblerob_env.ros.readback.scan import CorruptBagError
 from bubblerob_env.ros.readback.summary import bag_root, find_episodes, open_reader
 from bubblerob_env.specs import EnvSpecs
@@ -141,15 +142,7 @@ class _Episode:
 def _make_env(meta: dict[str, Any]) -> gym.Env[Any, Any]:
     if not meta.get("env_id"):
         raise ReplayError("the bag's metadata has no env id: record with an env made by gym.make")
-    kwargs = dict(meta.get("env_kwargs") or {})
-    kwargs["render_mode"] = None
-    try:
-        return gym.make(meta["env_id"], max_episode_steps=meta.get("max_episode_steps"), **kwargs)
-    except (gym.error.Error, TypeError, ValueError) as error:
-        raise ReplayError(
-            f"episode {meta.get('episode')}'s env {meta['env_id']} cannot be made again from "
-            f"the bag's metadata: {error}"
-        ) from None
+    return make_episode_env(meta, ReplayError)
 
 
 def _serializer(env: gym.Env[Any, Any], meta: dict[str, Any]) -> FrameSerializer:
