@@ -5,12 +5,21 @@
 ``sys.path`` and import this module. Here: counting messages, the subcommands' arguments and the
 parts of ``sync``, ``states``, ``drive``, ``tutorialloop`` and ``localize`` that do not depend on
 the client library, which each client passes in as small functions (publish this, stamp of that).
+
+``serve`` runs many subcommands in one client process (the tests' ``ClientServer``): a client
+library's start and its discovery of the graph are paid once per test session, not per call.
 """
 
 import argparse
+import json
 import math
+import sys
 import threading
 import time
+import traceback
+
+RESULT = "CLIENT-RESULT "
+"""How ``serve`` marks its answer lines on stdout (anything else there is the library's)."""
 
 
 class MessageCounter:
@@ -274,4 +283,28 @@ def parser(linger):
     p.add_argument("--speed", type=float, default=10.0)
     p.add_argument("--back-steps", type=int, default=30)
     p.add_argument("--settle", type=float, default=1.0)
+    sub.add_parser("serve", help="run subcommands read from stdin (see serve())")
     return top, sub
+
+
+def serve(parser, run, drop_made):
+    """Subcommands read from stdin, one JSON list of arguments a line, until end of input.
+
+    Each answer is one ``RESULT`` line: ``{"ok": result}``, or ``{"error": why}`` where a one-shot
+    client would have exited non-zero. ``drop_made()`` then removes the subscriptions and
+    publishers the subcommand made, as a one-shot client's exit does: nothing it latched or
+    listened to outlives it.
+    """
+    for line in sys.stdin:
+        try:
+            answer = {"ok": run(parser.parse_args(json.loads(line)))}
+        except SystemExit as stop:  # the subcommands' timeouts; argparse's refusals
+            answer = {"error": f"exit {stop.code}"}
+        except Exception:  # noqa: BLE001 - reported to the test, which fails on it
+            answer = {"error": traceback.format_exc()}
+        try:
+            drop_made()
+        except Exception:  # noqa: BLE001
+            answer.setdefault("error", "dropping its subscriptions failed")
+            answer["error"] += "\n" + traceback.format_exc()
+        print(RESULT + json.dumps(answer), flush=True)

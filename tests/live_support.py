@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import queue
 import signal
 import subprocess
 import threading
@@ -52,16 +53,74 @@ def wait_for(predicate: Callable[[], object], timeout: float, interval: float = 
     return bool(predicate())
 
 
-def run_json_client(
-    command: Sequence[str], env: Mapping[str, str], timeout: float, cwd: Path | None = None
-) -> Any:
-    """Run a client script's subcommand to completion; the JSON of its last stdout line."""
-    result = subprocess.run(
-        list(command), env=dict(env), cwd=cwd, capture_output=True, text=True, timeout=timeout,
-        check=False,
-    )  # fmt: skip
-    assert result.returncode == 0, f"client {command[2:]} failed:\n{result.stdout}\n{result.stderr}"
-    return json.loads(result.stdout.strip().splitlines()[-1])
+class ClientServer:
+    """A live client script in ``serve`` mode: one process for every subcommand of a session.
+
+    A one-shot client pays its interpreter, its client library and its discovery of the graph
+    (1-2 s) for each call; this one once. What a subcommand subscribed to or published goes with
+    it, as at a one-shot client's exit (``live_client_support.serve``). A call that fails or
+    times out stops the process; the next call starts another.
+    """
+
+    RESULT = "CLIENT-RESULT "  # live_client_support.RESULT
+
+    def __init__(self, command: Sequence[str], env: Mapping[str, str], cwd: Path | None = None):
+        self.command, self.env, self.cwd = [*command, "serve"], dict(env), cwd
+        self.proc: subprocess.Popen[str] | None = None
+        self.answers: queue.Queue[str | None] = queue.Queue()
+        self.err: list[str] = []
+
+    def _start(self) -> subprocess.Popen[str]:
+        self.answers, self.err = queue.Queue(), []
+        proc = subprocess.Popen(
+            self.command, env=self.env, cwd=self.cwd, text=True,
+            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        )  # fmt: skip
+        threading.Thread(
+            target=self._answers, args=(proc.stdout, self.answers), daemon=True
+        ).start()
+        threading.Thread(target=self._errors, args=(proc.stderr, self.err), daemon=True).start()
+        return proc
+
+    def _answers(self, stream: Any, answers: queue.Queue[str | None]) -> None:
+        for line in stream:
+            if line.startswith(self.RESULT):
+                answers.put(line[len(self.RESULT) :])
+        answers.put(None)  # the process ended
+
+    @staticmethod
+    def _errors(stream: Any, into: list[str]) -> None:
+        for line in stream:
+            into.append(line)
+
+    def call(self, args: Sequence[str], timeout: float) -> Any:
+        """Run one subcommand; its JSON result (an assertion error if it failed)."""
+        if self.proc is None or self.proc.poll() is not None:
+            self.proc = self._start()
+        assert self.proc.stdin is not None
+        self.proc.stdin.write(json.dumps(list(args)) + "\n")
+        self.proc.stdin.flush()
+        try:
+            line = self.answers.get(timeout=timeout)
+        except queue.Empty:
+            line = json.dumps({"error": f"no answer within {timeout} s"})
+        answer = json.loads(line) if line is not None else {"error": "the client exited"}
+        if "ok" not in answer:
+            self.close()
+            stderr = "".join(self.err)[-6000:]
+            raise AssertionError(f"client {list(args)} failed: {answer['error']}\n{stderr}")
+        return answer["ok"]
+
+    def close(self) -> None:
+        """Stop the process (end of its input, then SIGTERM, then SIGKILL)."""
+        if self.proc is not None:
+            if self.proc.poll() is None and self.proc.stdin is not None:
+                self.proc.stdin.close()
+                try:
+                    self.proc.wait(5.0)
+                except subprocess.TimeoutExpired:
+                    stop(self.proc, signal.SIGTERM, timeout=5.0)
+            self.proc = None
 
 
 class NodeProcess:

@@ -38,6 +38,7 @@ def master(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Master]:
         try:
             yield m
         finally:
+            m.clients.close()
             stop(proc)
         return
     pytest.fail("could not start rosmaster")

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from live_support import NodeProcess, run_json_client, stop, wait_for
+from live_support import ClientServer, NodeProcess, stop, wait_for
 
 __all__ = ["Master", "Node", "SKIP_REASON", "free_port", "requires_ros", "stop", "wait_for"]
 
@@ -65,6 +65,7 @@ class Master:
         self.debian_env = {"PATH": "/usr/bin:/bin", "HOME": str(home), "LANG": "C.UTF-8", **ros}
         self.venv_env = {**os.environ, **ros, "PYTHONUNBUFFERED": "1"}
         self.venv_env.pop("ROS_NAMESPACE", None)
+        self.clients = ClientServer(["/usr/bin/python3", str(CLIENT)], self.debian_env)
 
     def run(self, args: list[str], timeout: float = 30.0) -> subprocess.CompletedProcess[str]:
         """Run a Debian ROS tool (``rostopic ...``) to completion."""
@@ -73,8 +74,8 @@ class Master:
         )
 
     def client(self, *args: str, timeout: float = 30.0) -> Any:
-        """Run a ``ros_client.py`` subcommand; its JSON result."""
-        return run_json_client(["/usr/bin/python3", str(CLIENT), *args], self.debian_env, timeout)
+        """Run a ``ros_client.py`` subcommand (in the master's one client process); its result."""
+        return self.clients.call(args, timeout)
 
     def popen(self, args: list[str], **kwargs: Any) -> subprocess.Popen[str]:
         """Start a Debian ROS tool in the background."""

@@ -31,6 +31,27 @@ class Counter(shared.MessageCounter):
         self.sub = rospy.Subscriber(topic, cls, self._cb, tcp_nodelay=True, queue_size=None)
 
 
+class Made:
+    """The subscribers and publishers of the subcommand under way (``serve`` drops them after)."""
+
+    def __init__(self):
+        self.entities = []
+        for name in ("Subscriber", "Publisher"):
+            setattr(rospy, name, self._recorded(getattr(rospy, name)))
+
+    def _recorded(self, cls):
+        def make(*args, **kwargs):
+            entity = cls(*args, **kwargs)
+            self.entities.append(entity)
+            return entity
+
+        return make
+
+    def drop(self):
+        while self.entities:
+            self.entities.pop().unregister()
+
+
 def publisher(topic, cls, latch=False, subscribers=1, timeout=5.0):
     pub = rospy.Publisher(topic, cls, queue_size=100, latch=latch, tcp_nodelay=True)
     end = time.monotonic() + timeout
@@ -288,8 +309,11 @@ def main():
     p.add_argument("--seconds", type=float, default=1.5)
     args = parser.parse_args()
     rospy.init_node("live_test_client", anonymous=True, disable_signals=True)
-    result = globals()["cmd_" + args.cmd](args)
-    print(json.dumps(result), flush=True)
+    if args.cmd == "serve":
+        made = Made()
+        shared.serve(parser, lambda a: globals()["cmd_" + a.cmd](a), made.drop)
+    else:
+        print(json.dumps(globals()["cmd_" + args.cmd](args)), flush=True)
     rospy.signal_shutdown("done")
     return 0
 

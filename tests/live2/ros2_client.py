@@ -53,6 +53,29 @@ class Counter(shared.MessageCounter):
         self.sub = node.create_subscription(cls, topic, self._cb, qos)
 
 
+class Made:
+    """The subscriptions and publishers of the subcommand under way (``serve`` drops them after)."""
+
+    def __init__(self, node):
+        self.entities = []
+        subscribe, advertise = node.create_subscription, node.create_publisher
+        node.create_subscription = self._recorded(subscribe, node.destroy_subscription)
+        node.create_publisher = self._recorded(advertise, node.destroy_publisher)
+
+    def _recorded(self, create, destroy):
+        def make(*args, **kwargs):
+            entity = create(*args, **kwargs)
+            self.entities.append((entity, destroy))
+            return entity
+
+        return make
+
+    def drop(self):
+        while self.entities:
+            entity, destroy = self.entities.pop()
+            destroy(entity)
+
+
 def wait_until(predicate, timeout, what):
     end = time.monotonic() + timeout
     while not predicate():
@@ -328,13 +351,18 @@ def main():
     spinner = threading.Thread(target=executor.spin, daemon=True)
     spinner.start()
     try:
-        result = globals()["cmd_" + args.cmd](node, args)
+        if args.cmd == "serve":
+            made = Made(node)
+            shared.serve(parser, lambda a: globals()["cmd_" + a.cmd](node, a), made.drop)
+        else:
+            result = globals()["cmd_" + args.cmd](node, args)
     finally:
         executor.shutdown()
         spinner.join(5.0)
         node.destroy_node()
         rclpy.try_shutdown()
-    print(json.dumps(result), flush=True)
+    if args.cmd != "serve":
+        print(json.dumps(result), flush=True)
     return 0
 
 

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from live_support import NodeProcess, run_json_client, wait_for
+from live_support import ClientServer, NodeProcess, wait_for
 
 __all__ = [
     "DOMAIN_ID",
@@ -86,9 +86,13 @@ def require_ros2() -> None:
         pytest.skip(reason)
 
 
+CLIENTS = ClientServer([str(ROS2_PYTHON), str(CLIENT)], ros2_env())
+"""The session's one ``ros2_client.py`` process; it ends with its input, at the session's end."""
+
+
 def client(*args: str, timeout: float = 60.0) -> Any:
-    """Run a ``ros2_client.py`` subcommand; its JSON result."""
-    return run_json_client([str(ROS2_PYTHON), str(CLIENT), *args], ros2_env(), timeout)
+    """Run a ``ros2_client.py`` subcommand (in the session's client process); its result."""
+    return CLIENTS.call(args, timeout)
 
 
 class Node(NodeProcess):
