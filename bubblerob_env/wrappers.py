@@ -21,6 +21,7 @@ benches all read ``info["is_success"]`` on an episode's last step.
 
 from __future__ import annotations
 
+import math
 from typing import Any, SupportsFloat
 
 import gymnasium as gym
@@ -30,6 +31,7 @@ from gymnasium.utils import RecordConstructorArgs
 from numpy.typing import NDArray
 
 __all__ = [
+    "ActionNoise",
     "EpisodeSuccess",
     "LaserPooling",
     "TopDownView",
@@ -39,6 +41,9 @@ __all__ = [
 ]
 
 LASER_POOLING = "bubblerob_env.wrappers.LaserPooling"
+ACTION_NOISE = "bubblerob_env.wrappers.ActionNoise"
+TRAINING_ONLY = (ACTION_NOISE,)
+"""``env_wrapper`` entries that act only while training: a trained policy replays nothing."""
 
 
 def parse_env_wrapper(spec: Any) -> list[tuple[str, dict[str, Any]]]:
@@ -77,6 +82,8 @@ def laser_pooling(spec: Any) -> list[tuple[str, int]]:
     """
     steps = []
     for name, kwargs in parse_env_wrapper(spec):
+        if name in TRAINING_ONLY:
+            continue
         if name != LASER_POOLING:
             raise ValueError(
                 f"env_wrapper {name!r}: trained policies can apply only {LASER_POOLING} "
@@ -100,6 +107,31 @@ def min_pool(scan: NDArray[Any], pool: int) -> NDArray[Any]:
         raise ValueError(f"pool must be a positive divisor of the {rays} rays, got {pool}")
     pooled: NDArray[Any] = scan.reshape(*scan.shape[:-1], rays // pool, pool).min(axis=-1)
     return pooled
+
+
+class ActionNoise(gym.ActionWrapper[Any, Any, Any], RecordConstructorArgs):
+    """Adds Gaussian noise of standard deviation ``std`` to each action, then clips to [-1, 1].
+
+    A training lever (``env_wrapper``): a policy that must stay clear of obstacles while its
+    actions are perturbed learns a margin. The noise comes from the env's own generator, so a
+    seeded episode stays reproducible. Trained policies do not replay it (``laser_pooling``).
+    """
+
+    def __init__(self, env: gym.Env[Any, Any], std: float = 0.1) -> None:
+        RecordConstructorArgs.__init__(self, std=std)
+        gym.ActionWrapper.__init__(self, env)
+        if not (isinstance(std, (int, float)) and std >= 0.0 and math.isfinite(std)):
+            raise ValueError(f"ActionNoise std must be a finite number >= 0, got {std!r}")
+        self.std = float(std)
+
+    def action(self, action: Any) -> NDArray[np.float32]:
+        """The action with noise, clipped to the action space's [-1, 1]."""
+        generator: np.random.Generator = self.env.unwrapped.np_random
+        noisy = np.asarray(action, dtype=np.float64) + generator.normal(
+            0.0, self.std, size=np.shape(action)
+        )
+        clipped: NDArray[np.float32] = np.clip(noisy, -1.0, 1.0).astype(np.float32)
+        return clipped
 
 
 class LaserPooling(gym.ObservationWrapper[Any, Any, Any], RecordConstructorArgs):
