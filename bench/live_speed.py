@@ -2,6 +2,8 @@
 
 Usage: ``python bench/live_speed.py [--steps N] [--quick]``
 
+``--quick`` (the tests' smoke run): 100 steps, the camera off on ROS 1 and on on ROS 2 only.
+
 Starts its own ``rosmaster`` on a free loopback port. For the camera off and at 64x64, a
 subscriber process (Debian's ``/usr/bin/python3`` + ``rospy``, raw ``AnyMsg`` on every topic the
 node publishes) connects first, then starts the node's simulation (``startSimulation``); the node
@@ -192,9 +194,13 @@ def run_node(
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=2000, help="steps per node run")
-    parser.add_argument("--quick", action="store_true", help="a smoke test: 100 steps")
+    parser.add_argument(
+        "--quick", action="store_true", help="a smoke test: 100 steps, one run per ROS version"
+    )
     args = parser.parse_args()
     steps = 100 if args.quick else args.steps
+    # Each run starts a node and a subscriber (~5 s); the camera is one flag of the same code.
+    cameras = {1: (False,), 2: (True,)} if args.quick else {1: (False, True), 2: (False, True)}
     port = free_port()
     ros_env = {"ROS_MASTER_URI": f"http://127.0.0.1:{port}/", "ROS_HOSTNAME": "127.0.0.1"}
     home = Path(os.environ.get("TMPDIR", "/tmp")) / f"bubblerob_live_bench_{port}"
@@ -208,7 +214,7 @@ def main() -> None:
     rows = []
     try:
         check_master(ros_env["ROS_MASTER_URI"], timeout=15)
-        for camera in (False, True):
+        for camera in cameras[1]:
             alone = env_alone(camera, steps)
             rows.append((camera, alone, run_node(camera, steps, ros_env, home)))
     finally:
@@ -222,7 +228,7 @@ def main() -> None:
     # ROS 2: DDS on the loopback only, in a domain of its own
     ros2_env = {"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST", "ROS_DOMAIN_ID": str(port % 100 + 1)}
     rows = []
-    for camera in (False, True):
+    for camera in cameras[2]:
         alone = env_alone(camera, steps)
         rows.append((camera, alone, run_node(camera, steps, ros2_env, home, ros=2)))
     print(f"\n{steps} steps per run, ROS 2 Jazzy (rclpy 7.1.6, Fast DDS; sensor-data QoS for")
