@@ -169,27 +169,42 @@ for command in filter(None, sys.argv[2].split(",")):
         main([command])
     except SystemExit as error:
         refused[command] = str(error.code)
-print(json.dumps([helped, refused]))
+codes = []
+for argv in json.loads(sys.argv[3]):
+    try:
+        codes.append(main(argv))
+    except SystemExit as error:
+        codes.append(error.code)
+print(json.dumps([helped, refused, codes]))
 """
 
 
-def _help_and_refusals(prefix: Path, extra: str | None, cwd: Path) -> None:
-    """Each command of ``extra`` shows its help; one of each extra not installed names it."""
+def _help_and_refusals(
+    prefix: Path, extra: str | None, cwd: Path, runs: list[list[str]] | None = None
+) -> list[int]:
+    """Each command of ``extra`` shows its help; one of each extra not installed names it.
+
+    ``runs``: ``bubblerob`` command lines run after, in the same process (one interpreter and one
+    import of each module per venv; the venv alone decides what can be imported); their exit codes.
+    """
     installed = {extra, None, *{"demo": ("ros",), "train": ("ros", "demo")}.get(str(extra), ())}
     refused = {commands[0]: other for other, commands in SUBCOMMANDS.items()}
     refused = {command: other for command, other in refused.items() if other not in installed}
     ran = _run(
         prefix, "python", "-c", HELP_AND_REFUSALS, ",".join(SUBCOMMANDS[extra]), ",".join(refused),
-        cwd=cwd,
+        json.dumps(runs or []), cwd=cwd,
     )  # fmt: skip
     assert ran.returncode == 0, ran.stderr
-    helped, messages = json.loads(ran.stdout.strip().splitlines()[-1])
+    helped, messages, codes = json.loads(ran.stdout.strip().splitlines()[-1])
     for command in SUBCOMMANDS[extra]:
         assert f"usage: bubblerob {command}" in helped[command], (command, ran.stderr)
     assert sorted(messages) == sorted(refused)
     for command, other in refused.items():
         message = messages[command]
         assert "\n" not in message and f"pip install 'bubblerob[{other}]'" in message, message
+    for argv, code in zip(runs or [], codes, strict=True):
+        assert code == 0, (argv, ran.stderr)
+    return list(codes)
 
 
 def test_the_env_alone(wheel, installed, tmp_path) -> None:
@@ -198,48 +213,44 @@ def test_the_env_alone(wheel, installed, tmp_path) -> None:
         "import gymnasium as gym, bubblerob_env; "
         "print(gym.make('BubbleRob-v0').reset(seed=0)[0]['laser'].shape)"
     )
-    made = _run(prefix, "python", "-c", code, cwd=tmp_path)
+    made = _run(prefix, "python", "-c", code, cwd=tmp_path)  # before the CLI imports anything
     assert made.returncode == 0 and "(360,)" in made.stdout, made.stderr
     _help_and_refusals(prefix, None, tmp_path)
 
 
 def test_ros_commands_with_only_the_ros_extra(wheel, installed, tmp_path) -> None:
     prefix = _venv(wheel, installed, "ros", tmp_path)
-    _help_and_refusals(prefix, "ros", tmp_path)
-    record = _run(prefix, "bubblerob", "record", "--policy", "laser", "--episodes", "1",
-                  "--max-steps", "40", "--no-progress", "--out", "bags", cwd=tmp_path)  # fmt: skip
-    assert record.returncode == 0, record.stderr
-    (bag,) = (tmp_path / "bags").iterdir()
-    for command in (
-        ["info", str(bag)],
-        ["replay", str(bag)],
-        ["map", str(bag), "--out", "m.png"],
-        ["localize", str(bag), "--out", "l.png"],
-    ):
-        ran = _run(prefix, "bubblerob", *command, cwd=tmp_path)
-        assert ran.returncode == 0, (command, ran.stderr)
+    bag = "bags/bubblerob_laser_seed0"
+    _help_and_refusals(
+        prefix, "ros", tmp_path,
+        [["record", "--policy", "laser", "--episodes", "1", "--max-steps", "40", "--no-progress",
+          "--out", "bags"],
+         ["info", bag], ["replay", bag], ["map", bag, "--out", "m.png"],
+         ["localize", bag, "--out", "l.png"]],
+    )  # fmt: skip
+    assert [p.name for p in (tmp_path / "bags").iterdir()] == ["bubblerob_laser_seed0"]
     assert (tmp_path / "l.png").read_bytes()[:4] == b"\x89PNG"
     assert (tmp_path / "m.png").read_bytes()[:4] == b"\x89PNG"
 
 
 def test_demo_and_evaluate_with_only_the_demo_extra(wheel, installed, tmp_path) -> None:
     prefix = _venv(wheel, installed, "demo", tmp_path)
-    _help_and_refusals(prefix, "demo", tmp_path)
-    evaluate = _run(prefix, "bubblerob", "evaluate", "--policy", "laser", "--policy", "ppo",
-                    "--episodes", "1", "--env-kwargs", '{"max_episode_steps": 30}',
-                    "--video", "v.gif", cwd=tmp_path)  # fmt: skip
-    assert evaluate.returncode == 0, evaluate.stderr
+    _help_and_refusals(
+        prefix, "demo", tmp_path,
+        [["evaluate", "--policy", "laser", "--policy", "ppo", "--episodes", "1",
+          "--env-kwargs", '{"max_episode_steps": 30}', "--video", "v.gif"],
+         ["demo", "--episodes", "1", "--out", "out"]],
+    )  # fmt: skip
     assert (tmp_path / "v.gif").stat().st_size > 1000
-    demo = _run(prefix, "bubblerob", "demo", "--episodes", "1", "--out", "out", cwd=tmp_path)
-    assert demo.returncode == 0, demo.stderr
     assert (tmp_path / "out" / "bubblerob_demo_ppo.mp4").stat().st_size > 10_000
 
 
 def test_train_with_only_the_train_extra(wheel, installed, tmp_path) -> None:
     prefix = _venv(wheel, installed, "train", tmp_path)
-    _help_and_refusals(prefix, "train", tmp_path)
-    train = _run(prefix, "bubblerob", "train", "--timesteps", "64", "--n-envs", "1",
-                 "--set", "n_steps=32", "--set", "batch_size=32", "--eval-freq", "64",
-                 "--eval-episodes", "1", "--out", "run", "--no-progress", cwd=tmp_path)  # fmt: skip
-    assert train.returncode == 0, train.stderr
+    _help_and_refusals(
+        prefix, "train", tmp_path,
+        [["train", "--timesteps", "64", "--n-envs", "1", "--set", "n_steps=32",
+          "--set", "batch_size=32", "--eval-freq", "64", "--eval-episodes", "1", "--out", "run",
+          "--no-progress"]],
+    )  # fmt: skip
     assert (tmp_path / "run" / "model.zip").is_file()
