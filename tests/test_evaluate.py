@@ -2,12 +2,10 @@
 
 from __future__ import annotations
 
-import subprocess
-import sys
-
 import imageio.v3 as iio
 import numpy as np
 import pytest
+from cli_usage import run
 
 from policies.evaluation import EpisodeStats, format_table, summarize
 from policies.protocol import wilson_interval
@@ -56,59 +54,34 @@ def test_the_success_interval_is_wilsons(successes, trials):
     assert wilson_interval(successes, trials) == pytest.approx((low, high), abs=1e-9)
 
 
-def test_evaluate_command_compares_policies_and_writes_a_video(tmp_path):
+def test_evaluate_command_compares_policies_and_writes_a_video(tmp_path, capsys):
     video = tmp_path / "episode.gif"
-    command = [
-        sys.executable,
-        "-m",
-        "bubblerob_env.cli",
-        "evaluate",
-        "--policy",
-        "laser",
-        "--policy",
-        "reactive",
-        "--episodes",
-        "2",
-        "--env-kwargs",
-        '{"arena_size": 3.0}',
-        "--video",
-        str(video),
-    ]
-    result = subprocess.run(command, capture_output=True, text=True, timeout=600, check=False)
-    assert result.returncode == 0, result.stderr
-    rows = [line.split() for line in result.stdout.splitlines()]
+    command = ["evaluate", "--policy", "laser", "--policy", "reactive", "--episodes", "2",
+               "--env-kwargs", '{"arena_size": 3.0}', "--video", str(video)]  # fmt: skip
+    result = run(command, capsys)  # in process (cli_usage): an exception fails the test
+    assert result.code == 0, result.err
+    rows = [line.split() for line in result.out.splitlines()]
     assert rows[0][0] == "policy"
     assert [rows[1][0], rows[2][0]] == ["laser", "reactive"]
     frames = iio.imread(video, index=None)
     assert frames.shape[0] >= 2 and frames.shape[-1] in (3, 4)
 
 
-def test_evaluate_rejects_bad_env_kwargs():
-    command = [
-        sys.executable,
-        "-m",
-        "bubblerob_env.cli",
-        "evaluate",
-        "--policy",
-        "laser",
-        "--env-kwargs",
-        "[1]",
-    ]
-    result = subprocess.run(command, capture_output=True, text=True, timeout=120, check=False)
-    assert result.returncode == 2
-    assert "--env-kwargs must be a JSON object" in result.stderr
+def test_evaluate_rejects_bad_env_kwargs(capsys):
+    result = run(["evaluate", "--policy", "laser", "--env-kwargs", "[1]"], capsys)
+    assert result.code == 2
+    assert "--env-kwargs must be a JSON object" in result.err
 
 
-def test_demo_films_the_first_episode_from_above_and_shows_progress(tmp_path):
+def test_demo_films_the_first_episode_from_above_and_shows_progress(tmp_path, capsys):
     import gymnasium as gym
 
     from bubblerob_env.wrappers import TopDownView
 
-    command = [sys.executable, "-m", "bubblerob_env.cli", "demo", "--episodes", "1"]
-    command += ["--policy", "laser", "--out", str(tmp_path)]
-    result = subprocess.run(command, capture_output=True, text=True, timeout=600, check=False)
-    assert result.returncode == 0, result.stderr
-    assert "1000/1000" in result.stderr and "step" in result.stderr  # a bar of steps
+    command = ["demo", "--episodes", "1", "--policy", "laser", "--out", str(tmp_path)]
+    result = run(command, capsys)
+    assert result.code == 0, result.err
+    assert "1000/1000" in result.err and "step" in result.err  # a bar of steps
     frames = iio.imread(tmp_path / "bubblerob_demo_laser.mp4", index=None)
     assert frames.shape == (1001, 360, 360, 3)  # the reset's frame and one per step
     env = TopDownView(gym.make("BubbleRob-v0"))

@@ -8,6 +8,7 @@ import gymnasium as gym
 import mujoco
 import numpy as np
 import pytest
+from cli_usage import run
 
 import bubblerob_env  # noqa: F401 - registers BubbleRob-v0
 from bubblerob_env.mapping import (
@@ -115,13 +116,10 @@ def test_map_of_a_bag_without_map_re_simulates_the_episode(tmp_path):
     assert with_map.iou == without.iou
 
 
-def test_map_re_simulates_with_the_env_the_user_names(tmp_path):
+def test_map_re_simulates_with_the_env_the_user_names(tmp_path, capsys):
     # A bag without /map of an env with a 3 m arena: the truth re-simulated from the metadata is
     # that arena (the oracle: a fresh env of the same kwargs and seed); --env-kwargs another
     # arena gives that one's; an env that cannot be made is one line, exit 2.
-    import subprocess
-    import sys
-
     pytest.importorskip("rosbags")
     from bubblerob_env.ros import RosBagRecorder
     from bubblerob_env.ros.messages.topics import Topics
@@ -145,27 +143,20 @@ def test_map_re_simulates_with_the_env_the_user_names(tmp_path):
     assert np.array_equal(own.truth.data, truth(arena_size=3.0).data)
     assert np.array_equal(other.truth.data, truth(arena_size=4.0).data)
     assert own.truth.data.shape != other.truth.data.shape
-    result = subprocess.run(
-        [sys.executable, "-m", "bubblerob_env.cli", "map", str(tmp_path / "bag"),
-         "--env", "Nope-v0", "--out", str(tmp_path / "m.png")],
-        capture_output=True, text=True, timeout=120, check=False,
-    )  # fmt: skip
-    assert result.returncode == 2 and "Traceback" not in result.stderr, result.stderr
-    (line,) = result.stderr.strip().splitlines()
+    result = run(  # in process (cli_usage): an exception would fail the test
+        ["map", str(tmp_path / "bag"), "--env", "Nope-v0", "--out", str(tmp_path / "m.png")],
+        capsys,
+    )
+    assert result.code == 2 and "Traceback" not in result.err, result.err
+    (line,) = result.err.strip().splitlines()
     assert "'Nope-v0'" in line and "--env ID" in line, line
 
 
 @pytest.mark.parametrize("value", ["0", "abc"])
-def test_map_with_a_bad_resolution_is_one_line(tmp_path, value):
-    import subprocess
-    import sys
-
-    result = subprocess.run(
-        [sys.executable, "-m", "bubblerob_env.cli", "map", str(tmp_path), "--resolution", value],
-        capture_output=True, text=True, timeout=120, check=False,
-    )  # fmt: skip
-    assert result.returncode == 2 and "Traceback" not in result.stderr, result.stderr
-    (line,) = result.stderr.strip().splitlines()
+def test_map_with_a_bad_resolution_is_one_line(tmp_path, capsys, value):
+    result = run(["map", str(tmp_path), "--resolution", value], capsys)
+    assert result.code == 2 and "Traceback" not in result.err, result.err
+    (line,) = result.err.strip().splitlines()
     assert value in line and "0.005" in line, line
 
 
