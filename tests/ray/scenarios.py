@@ -117,6 +117,11 @@ def record(params: dict[str, Any]) -> dict[str, Any]:
     return {**done, "killed": killed}
 
 
+def cli(params: dict[str, Any]) -> dict[str, Any]:
+    """``bubblerob ARGV`` on this process's cluster: exit code, stdout and stderr."""
+    return _cli(params["argv"])
+
+
 def _trajectory(env: gym.Env[Any, Any], actions: np.ndarray) -> list[Any]:
     steps = []
     for action in actions:
@@ -192,6 +197,7 @@ SCENARIOS: dict[str, Callable[[dict[str, Any]], dict[str, Any]]] = {
     "evaluate": evaluate,
     "evaluate_with_kill": evaluate_with_kill,
     "record": record,
+    "cli": cli,
     "pickling": pickling,
     "multi_node": multi_node,
 }

@@ -26,6 +26,11 @@ SHORT = {"max_episode_steps": 150}
 KILL_KWARGS = {"max_episode_steps": 400}
 RECORD_ARGS = ["--policy", "laser", "--episodes", "5", "--seed", "40", "--max-steps", "250"]
 RECORD_START = ["--start-time", "1700000000"]
+EVALUATE = [
+    "evaluate", "--policy", "reactive", "--policy", "laser", "--policy", "reactive",
+    "--episodes", "4", "--seed", "7",
+    "--env-kwargs", '{"max_episode_steps": 100}',
+]  # fmt: skip
 
 
 @pytest.fixture(scope="module")
@@ -39,6 +44,7 @@ def ray_runs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, 
             "episodes": 12, "seed": 1000, "env_kwargs": KILL_KWARGS, "chunk_size": 6,
         },
         "record": {"argv": [*RECORD_ARGS, *RECORD_START, "--out", str(out / "bags")], "kill": True},
+        "cli": {"argv": [*EVALUATE, "--ray", "local"]},
     }  # fmt: skip
     return out, run_scenarios(wanted, out)
 
@@ -72,6 +78,19 @@ def test_evaluate_rows_and_episodes_equal_serial(ray_runs: tuple[Path, dict[str,
     serial = [e for p in policies for e in _serial_episodes(p, range(1000, 1006), SHORT)]
     assert result["episodes"] == _json_like(serial)
     assert result["tasks"] == 10  # 3 policies x 3 chunks of 2 seeds; random's one stream in 1
+
+
+def test_evaluate_command_on_the_cluster_prints_the_serial_table(
+    ray_runs: tuple[Path, dict[str, Any]], capsys: pytest.CaptureFixture[str]
+) -> None:
+    # `bubblerob evaluate --ray local` on this module's cluster (test_ray_cli's Ctrl-C test runs
+    # it in a process of its own, which starts one); the table is the serial command's.
+    done = ray_runs[1]["cli"]
+    assert done["code"] == 0, done["stderr"]
+    assert bubblerob(EVALUATE) == 0
+    assert done["stdout"] == capsys.readouterr().out
+    assert "12/12" in done["stderr"]  # the bar counted the 3 x 4 episodes (a policy named twice)
+    assert "Ray tasks on 1 node(s)" in done["stderr"]
 
 
 def test_killed_worker_is_retried_without_losing_or_repeating(
