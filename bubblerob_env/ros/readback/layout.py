@@ -9,6 +9,7 @@ read is *corrupt* (:class:`CorruptBagError`, naming the file and where), never "
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 from bubblerob_env.ros.readback.mcap_scan import has_mcap_footer
@@ -38,12 +39,25 @@ def _listed_files(folder: Path) -> list[str] | None:
     metadata = folder / "metadata.yaml"
     if not metadata.is_file():
         return None
+    try:
+        text = metadata.read_text(encoding="utf-8")
+    except (OSError, UnicodeError) as error:
+        raise CorruptBagError(f"{metadata} does not read as rosbag2 metadata ({error})") from None
+    return list(_parsed_file_list(str(metadata), text))
+
+
+@functools.lru_cache(maxsize=64)
+def _parsed_file_list(metadata: str, text: str) -> tuple[str, ...]:
+    """The storage files ``text`` (``metadata.yaml``) lists, parsed once per content.
+
+    One command asks for a bag's layout many times, and ruamel parses 7 kB in about 40 ms.
+    """
     from ruamel.yaml import YAML
 
     try:
-        info = YAML(typ="safe").load(metadata.read_text(encoding="utf-8"))
+        info = YAML(typ="safe").load(text)
         files = info["rosbag2_bagfile_information"]["relative_file_paths"]
-        return [Path(str(name)).name for name in files]
+        return tuple(Path(str(name)).name for name in files)
     except Exception as error:  # noqa: BLE001 - YAML, key and type errors: a damaged file
         raise CorruptBagError(f"{metadata} does not read as rosbag2 metadata ({error})") from None
 
