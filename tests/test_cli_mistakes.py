@@ -55,7 +55,9 @@ def test_an_unusable_demo_out_is_one_line(tmp_path, capsys):
         (["demo", "--env", "NoSuch-v0", "--no-video"], "--env NoSuch-v0"),
         (["teleop", "--env-kwargs", '{"action_type": "wheels"}'], "cannot set action_type"),
         (["teleop", "--env-kwargs", '{"nosuch": 1}'], "unexpected keyword argument"),
-        (["teleop", "--ros", "1", "--env-kwargs", '{"arena_size": 3}'], "local simulation"),
+        # teleop --ros takes --env/--env-kwargs for the node's limits now: a bad one is refused
+        # before any ROS master is looked for.
+        (["teleop", "--ros", "1", "--env-kwargs", '{"nosuch": 1}'], "unexpected keyword argument"),
     ],
 )
 def test_a_bad_env_is_one_line_exit_2(args, says, capsys):
