@@ -125,15 +125,8 @@ def _usage(command: str, args: argparse.Namespace) -> None:
         problem = f"--episodes must be >= 1, got {args.episodes}"
     elif not 0 <= args.seed <= 2**32 - 1 - args.episodes:
         problem = f"--seed must be from 0 to {2**32 - 1 - args.episodes}, got {args.seed}"
-    elif (
-        split is not None
-        and args.seed + args.episodes > split.stop
-        or (split is not None and args.seed < split.start)
-    ):
-        problem = (
-            f"--split {split.name}: seeds {args.seed}-{args.seed + args.episodes - 1} are not all "
-            f"in {split.start}-{split.stop - 1}"
-        )
+    elif split is not None and (outside := split.outside(args.seed, args.episodes)):
+        problem = f"--split {split.name}: {outside}"
     elif getattr(args, "video", None) is not None:
         try:
             Path(args.video).resolve().parent.mkdir(parents=True, exist_ok=True)

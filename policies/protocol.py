@@ -35,13 +35,14 @@ class SeedRange:
     def __contains__(self, seed: object) -> bool:
         return isinstance(seed, int) and self.start <= seed < self.stop
 
-    def check(self, first: int, episodes: int) -> None:
-        """``ValueError`` unless seeds ``first`` to ``first + episodes - 1`` are all in range."""
-        if not (self.start <= first and first + episodes <= self.stop):
-            raise ValueError(
-                f"{self.name} seeds are {self.start}-{self.stop - 1}; "
-                f"seeds {first}-{first + episodes - 1} are not all in it"
-            )
+    def outside(self, first: int, episodes: int) -> str | None:
+        """Why seeds ``first`` on (``episodes`` of them) are not all in range; None if they are."""
+        if self.start <= first and first + episodes <= self.stop:
+            return None
+        return (
+            f"{self.name} seeds are {self.start}-{self.stop - 1}; "
+            f"seeds {first}-{first + episodes - 1} are not all in it"
+        )
 
 
 TRAINING = SeedRange("training", 0, 1_000)

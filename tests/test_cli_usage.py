@@ -46,6 +46,15 @@ REFUSED = [
     (["train", "--timesteps", "256", "--eval-freq", "0"], "--eval-freq must be an int >= 1"),
     (["train", "--torch-threads", "0"], "--torch-threads must be an int >= 1"),
     (["train", "--seed", "-1"], "--seed must be an int from 0 to 4294967295"),
+    (["train", "--seed", "993"], "training seeds are 0-999 (policies/protocol.py): use --seed"),
+    (
+        ["evaluate", "--policy", "laser", "--split", "test", "--seed", "5"],
+        "--split test: test seeds are 100000-199999; seeds 5-104 are not all in it",
+    ),
+    (
+        ["evaluate", "--policy", "laser", "--split", "validation", "--seed", "99999"],
+        "validation seeds are 1000-99999; seeds 99999-100098 are not all in it",
+    ),
     (["train", "--set", "n_steps=-1"], "hyperparameter n_steps must be an int >= 1, got -1"),
     (["train", "--set", "gamma=1.5"], "hyperparameter gamma must be a number in (0, 1]"),
     (["train", "--set", "n_steps=["], "--set n_steps=[: the value is"),
