@@ -82,3 +82,11 @@ def run_scenarios(
 def bubblerob_in_netns(args: list[str], timeout_s: float = 180) -> subprocess.CompletedProcess[str]:
     """``bubblerob ARGS`` in a namespace (the CLI of this interpreter's environment)."""
     return in_netns([sys.executable, "-m", "bubblerob_env.cli", *args], timeout_s)
+
+
+def as_json(row: Any) -> Any:
+    """A serial evaluation row as a scenario's process sends rows back: through JSON (tuples
+    become lists)."""
+    import dataclasses
+
+    return json.loads(json.dumps(dataclasses.asdict(row)))

@@ -2,12 +2,9 @@
 
 from __future__ import annotations
 
-import dataclasses
-import json
 from pathlib import Path
-from typing import Any
 
-from ray_helpers import need_netns, run_scenarios
+from ray_helpers import as_json, need_netns, run_scenarios
 
 from bubblerob_env.ros.readback.replay import replay_bag
 from policies.evaluation import evaluate
@@ -32,15 +29,10 @@ def test_two_nodes_evaluate_and_record_as_one(tmp_path: Path) -> None:
     evaluated = result["evaluate"]
     assert len(evaluated["nodes"]) == 2, "every task ran on one node"
     assert [e["seed"] for e in evaluated["episodes"]] == list(range(1000, 1006))
-    assert evaluated["rows"] == [_as_json(evaluate("reactive", 6, 1000, env_kwargs=SHORT))]
+    assert evaluated["rows"] == [as_json(evaluate("reactive", 6, 1000, env_kwargs=SHORT))]
     assert result["record"]["code"] == 0, result["record"]["stderr"]
     assert "on 2 node(s)" in result["record"]["stdout"]
     bags = sorted(p for p in tmp_path.iterdir() if p.name.startswith("bubblerob_"))
     assert [b.name for b in bags] == [f"bubblerob_reactive_seed{s}-{s}" for s in range(4)]
     for bag in bags:
         assert replay_bag(bag).ok
-
-
-def _as_json(row: Any) -> Any:
-    # A serial row as the scenario's process sends its rows back: through JSON (tuples: lists).
-    return json.loads(json.dumps(dataclasses.asdict(row)))

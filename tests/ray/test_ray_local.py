@@ -8,14 +8,13 @@ is computed here, without Ray.
 from __future__ import annotations
 
 import dataclasses
-import json
 from collections import Counter
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 import pytest
-from ray_helpers import need_netns, run_scenarios
+from ray_helpers import as_json, need_netns, run_scenarios
 
 from bubblerob_env.cli import main as bubblerob
 from bubblerob_env.ros.readback.replay import replay_bag
@@ -74,7 +73,7 @@ def _json_like(value: Any) -> Any:
 def test_evaluate_rows_and_episodes_equal_serial(ray_runs: tuple[Path, dict[str, Any]]) -> None:
     result = ray_runs[1]["evaluate"]
     policies = ["reactive", "laser", "ppo", "random"]
-    serial_rows = [_as_json(evaluate(p, 6, 1000, env_kwargs=SHORT)) for p in policies]
+    serial_rows = [as_json(evaluate(p, 6, 1000, env_kwargs=SHORT)) for p in policies]
     assert result["rows"] == serial_rows
     serial = [e for p in policies for e in _serial_episodes(p, range(1000, 1006), SHORT)]
     assert result["episodes"] == _json_like(serial)
@@ -100,7 +99,7 @@ def test_killed_worker_is_retried_without_losing_or_repeating(
     result = ray_runs[1]["evaluate_with_kill"]
     assert len(result["killed"]) == 1, "no evaluation worker was seen running to kill"
     assert [e["seed"] for e in result["episodes"]] == list(range(1000, 1012))
-    assert result["rows"] == [_as_json(evaluate("laser", 12, 1000, env_kwargs=KILL_KWARGS))]
+    assert result["rows"] == [as_json(evaluate("laser", 12, 1000, env_kwargs=KILL_KWARGS))]
 
 
 def test_env_survives_ray_put_and_a_task(ray_runs: tuple[Path, dict[str, Any]]) -> None:
@@ -132,8 +131,3 @@ def test_record_bags_hold_the_serial_episodes(
     serial = read_summary(serial_bag)
     assert seeds == [episode["seed"] for episode in serial.episodes] == list(range(40, 45))
     assert topics == Counter({t.name: t.count for t in serial.topics if t.name != "/tf_static"})
-
-
-def _as_json(row: Any) -> Any:
-    # A serial row as the scenario's process sends its rows back: through JSON (tuples: lists).
-    return json.loads(json.dumps(dataclasses.asdict(row)))

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import dataclasses
 import json
 from pathlib import Path
 
 import pytest
 import yaml
-from ray_helpers import bubblerob_in_netns, need_netns
+from ray_helpers import as_json, bubblerob_in_netns, need_netns
 
 from bubblerob_env.cli import main as bubblerob
 from policies.evaluation import evaluate
@@ -36,7 +35,7 @@ def test_sweep_trains_each_seed_in_its_folder_and_names_the_best(tmp_path: Path)
         assert config["seed"] == run["seed"]
         # The oracle, without Ray: the model in the env it trained in (the run's env_kwargs).
         serial = evaluate(run["policy"], 2, VALIDATION_SEED, env_kwargs=config["env_kwargs"])
-        expected = json.loads(json.dumps(dataclasses.asdict(serial)))  # as sweep.json holds it
+        expected = as_json(serial)  # as sweep.json holds it
         assert {k: run[k] for k in expected} == expected
         rows.append(serial)
     best = max(rows, key=lambda r: (r.success_rate, r.mean_return))
