@@ -128,32 +128,26 @@ def run_episode(
 
 
 def summarize(policy_name: str, episodes: Sequence[EpisodeStats]) -> EvalResult:
-    """Aggregate episodes into one table row."""
-    count = len(episodes)
-    return EvalResult(
-        policy=policy_name,
-        episodes=count,
-        success_rate=sum(e.succeeded for e in episodes) / count,
-        collision_rate=sum(e.collided for e in episodes) / count,
-        mean_speed_fraction=float(np.mean([s for e in episodes for s in e.speed_fractions])),
-        mean_length=float(np.mean([e.length for e in episodes])),
-        mean_return=float(np.mean([e.total_reward for e in episodes])),
-        per_episode=tuple(
-            {
-                "seed": e.seed,
-                "succeeded": e.succeeded,
-                "collided": e.collided,
-                "length": e.length,
-                "return": e.total_reward,
-                "speed": float(np.mean(e.speed_fractions)),
-            }
-            for e in episodes
-        ),
-    )
+    """Aggregate episodes into one table row (through their per-episode records)."""
+    records = [
+        {
+            "seed": e.seed,
+            "succeeded": e.succeeded,
+            "collided": e.collided,
+            "length": e.length,
+            "return": e.total_reward,
+            "speed": float(np.mean(e.speed_fractions)),
+        }
+        for e in episodes
+    ]
+    return summarize_records(policy_name, records)
 
 
 def summarize_records(policy_name: str, records: Sequence[dict[str, Any]]) -> EvalResult:
-    """The table row of ``evaluate --per-episode``'s records (speed weighted by length)."""
+    """The table row of per-episode records (``evaluate --per-episode``'s).
+
+    The mean speed is over all steps: each episode's mean weighted by its length.
+    """
     lengths = np.array([r["length"] for r in records], dtype=float)
     return EvalResult(
         policy=policy_name,
