@@ -107,13 +107,15 @@ venv:
 	  $(PYTHON) -m venv $(VENV)
 	fi
 
-# The numba step kernel compiles on the first env step and is cached on disk: compile it here,
-# once, so that the demo's first step does not wait (a second run loads it from the cache).
+# The numba kernels compile on their first call and are cached on disk: compile them here, once,
+# so that the demo's first step and a node's first localisation do not wait (a second run loads
+# them from the cache).
 kernel: venv-demo
-	@if compgen -G "bubblerob_env/core/__pycache__/kernel.step_robots*.nbi" >/dev/null; then
-	  echo "setup: the step kernel is compiled (numba cache): skipped"
+	@if compgen -G "bubblerob_env/core/__pycache__/kernel.step_robots*.nbi" >/dev/null \
+	  && compgen -G "bubblerob_env/localisation/__pycache__/field.squared*.nbi" >/dev/null; then
+	  echo "setup: the numba kernels are compiled (numba cache): skipped"
 	else
-	  echo "setup: compiling the step kernel (numba, once; cached in bubblerob_env/core/__pycache__)"
+	  echo "setup: compiling the numba kernels (once; cached in bubblerob_env/*/__pycache__)"
 	  $(VENV)/bin/python -m bubblerob_env.core
 	fi
 

@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 
 from bubblerob_env.mapping import OCCUPIED, Grid
 
-__all__ = ["LikelihoodField", "squared_distance_transform"]
+__all__ = ["LikelihoodField", "compile_field_kernel", "squared_distance_transform"]
 
 _FAR = 1e20  # squared distance of a cell with nothing occupied on its line (yet)
 
@@ -61,6 +61,12 @@ def squared_distance_transform(occupied: NDArray[np.bool_]) -> NDArray[np.float6
         _transform_line(column, line[:rows])
         result[:, j] = line[:rows]
     return result
+
+
+def compile_field_kernel() -> None:
+    """Compile (or load from numba's cache) the transform now, not at the first map: a live node
+    calls this before it says ready, so its first episode does not stall seconds unpublished."""
+    squared_distance_transform(np.ones((2, 2), dtype=np.bool_))
 
 
 class LikelihoodField:

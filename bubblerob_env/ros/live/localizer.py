@@ -30,7 +30,7 @@ import gymnasium as gym
 import numpy as np
 
 from bubblerob_env.localisation.evaluation import scan_geometry
-from bubblerob_env.localisation.field import LikelihoodField
+from bubblerob_env.localisation.field import LikelihoodField, compile_field_kernel
 from bubblerob_env.localisation.filter import ParticleFilter
 from bubblerob_env.mapping import DEFAULT_RESOLUTION, episode_grid
 from bubblerob_env.ros.live.amcl_messages import (
@@ -107,6 +107,7 @@ class LiveLocalizer:
         self.updates = 0
         self.initial_poses = 0
         backend.subscribe(self.names["initialpose"], INITIAL_POSE, self._receive)
+        compile_field_kernel()
 
     def _receive(self, raw: bytes, msgtype: str | None, sender: str) -> None:
         """An ``/initialpose`` (on a middleware thread): queued for the simulation loop."""
