@@ -64,8 +64,10 @@ def squared_distance_transform(occupied: NDArray[np.bool_]) -> NDArray[np.float6
 
 
 def compile_field_kernel() -> None:
-    """Compile (or load from numba's cache) the transform now, not at the first map: a live node
-    calls this before it says ready, so its first episode does not stall seconds unpublished."""
+    """Compile the transform now (or load it from numba's cache), not at the first map.
+
+    A live node calls this before it says ready, so its first episode does not stall unpublished.
+    """
     squared_distance_transform(np.ones((2, 2), dtype=np.bool_))
 
 
