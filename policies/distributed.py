@@ -35,6 +35,7 @@ __all__ = [
     "evaluate_chunk",
     "evaluate_on_ray",
     "gather",
+    "plan_chunks",
     "ray_session",
     "seed_chunks",
 ]
@@ -61,8 +62,11 @@ CONNECT_TIMEOUT_S = 5.0
 MAX_CHUNK = 10
 """Most episodes in one task: small enough that a progress bar moves and a retry is cheap."""
 
-CHUNKS_PER_CPU = 4
-"""Tasks per CPU of the cluster, at least: slow and fast chunks even out across workers."""
+TAIL_SHARES = 2
+"""A chunk is the episodes still unplanned over ``TAIL_SHARES`` x the cluster's CPUs (see
+:func:`plan_chunks`). Fixed chunks of 7 left one of 2 CPUs idle at the end of every run for up
+to 7 episodes (evaluation on Ray measured 1.55-1.74x serial on 2 cores); shrinking chunks end
+with one-episode tasks."""
 
 
 def seed_chunks(first: int, count: int, chunk_size: int) -> list[range]:
@@ -75,9 +79,25 @@ def seed_chunks(first: int, count: int, chunk_size: int) -> list[range]:
     ]
 
 
-def chunk_size_for(episodes: int, cpus: float) -> int:
-    """Episodes per task for ``episodes`` on a cluster of ``cpus`` CPUs (see :data:`MAX_CHUNK`)."""
-    return max(1, min(MAX_CHUNK, math.ceil(episodes / (CHUNKS_PER_CPU * max(1.0, cpus)))))
+def plan_chunks(first: int, count: int, cpus: float, chunk_size: int | None = None) -> list[range]:
+    """Seeds ``first .. first + count - 1`` as consecutive chunks, one task each.
+
+    ``chunk_size`` fixes their size. Otherwise they shrink as the work runs out (guided
+    self-scheduling, Polychronopoulos and Kuck, 1987): each is the unplanned episodes over
+    :data:`TAIL_SHARES` x ``cpus``, from 1 to :data:`MAX_CHUNK`, so the last tasks hold one
+    episode and no CPU waits long for another's last chunk. Ray starts tasks in the order they
+    are submitted, largest first.
+    """
+    if chunk_size is not None:
+        return seed_chunks(first, count, chunk_size)
+    if count < 1:
+        raise ValueError(f"count must be >= 1, got {count}")
+    chunks, start, end = [], first, first + count
+    while start < end:
+        size = max(1, min(MAX_CHUNK, math.ceil((end - start) / (TAIL_SHARES * max(1.0, cpus)))))
+        chunks.append(range(start, min(start + size, end)))
+        start += size
+    return chunks
 
 
 def check_address(address: str) -> None:
@@ -240,15 +260,15 @@ def evaluate_on_ray(
 
     seeds = range(seed, seed + episodes)
     with ray_session(address, num_cpus) as ray:
-        size = chunk_size or chunk_size_for(
-            episodes * len(policy_names), ray.cluster_resources().get("CPU", 1.0)
-        )
+        cpus = ray.cluster_resources().get("CPU", 1.0)
         task = ray.remote(num_cpus=1, max_retries=TASK_RETRIES)(evaluate_chunk)
         work = [
             (row, name, chunk)
             for row, name in enumerate(policy_names)
-            for chunk in seed_chunks(
-                seed, episodes, episodes if name in ONE_STREAM_POLICIES else size
+            for chunk in (
+                [seeds]
+                if name in ONE_STREAM_POLICIES
+                else plan_chunks(seed, episodes, cpus, chunk_size)
             )
         ]
         refs = [

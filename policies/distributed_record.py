@@ -23,11 +23,10 @@ from policies.distributed import (
     ONE_STREAM_POLICIES,
     TASK_RETRIES,
     check_address,
-    chunk_size_for,
     command_errors,
     gather,
+    plan_chunks,
     ray_session,
-    seed_chunks,
 )
 
 __all__ = ["RecordChunk", "record_chunk", "record_command", "record_on_ray"]
@@ -132,10 +131,9 @@ def _check_targets(out: Path, names: list[str], fmt: str, overwrite: bool) -> No
 
 def _plan(args: Any, chunk_size: int | None, cpus: float) -> list[range]:
     """The chunks of seeds, their bags checked (see :func:`_check_targets`)."""
-    size = chunk_size or chunk_size_for(args.episodes, cpus)
     if args.policy in ONE_STREAM_POLICIES:
-        size = args.episodes
-    chunks = seed_chunks(args.seed, args.episodes, size)
+        chunk_size = args.episodes
+    chunks = plan_chunks(args.seed, args.episodes, cpus, chunk_size)
     names = [chunk_bag_name(args.policy, chunk) for chunk in chunks]
     _check_targets(args.out, names, args.format, args.overwrite)
     return chunks
