@@ -617,9 +617,9 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
         # check after every substep (a touch that begins and ends inside one control step is
         # still a collision), the sensors, the reward and its parts.
         core.step(self._one_robot)
-        slip = draw_slip(self.np_random, self.odometry_noise)[None] if self.odometry_noise else None
-        self._odometry.advance(self._one_robot, core.out, slip)
         values = core.out[self._row].tolist()
+        slip = draw_slip(self.np_random, self.odometry_noise)[None] if self.odometry_noise else None
+        self._odometry.advance_one(self._odometry_row, values, slip)
         collision = values[_COLLISION] != 0.0
         self._clipped_actions += values[_CLIPPED] != 0.0
         diverged = self._diverged() if values[_DIVERGED] else ""

@@ -49,10 +49,10 @@ def robot_info(
 
     ``odometry``: every robot's odometry ``(x, y, yaw)`` (``Odometry.poses``).
     """
-    row = core.out[i]
+    row = core.out[i].copy()  # one copy: the array keys are views into it
     values = row.tolist()
     info: dict[str, Any] = {
-        key: values[column] if width == 0 else row[column : column + width].copy()
+        key: values[column] if width == 0 else row[column : column + width]
         for key, column, width in _FLOAT_COLUMNS
     }
     info["odom_x"], info["odom_y"], info["odom_yaw"] = odometry[i].tolist()

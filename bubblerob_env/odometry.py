@@ -34,6 +34,7 @@ __all__ = ["TRUTH_COLUMNS", "Odometry", "draw_slip", "integrate_travel"]
 
 TRUTH_COLUMNS = np.array([int(OUT.POSITION), int(OUT.POSITION) + 1, int(OUT.YAW)])
 """Columns of the kernel's results holding the true x, y (m) and yaw (rad) of ``base_link``."""
+_X, _Y, _YAW = (int(column) for column in TRUTH_COLUMNS)
 POSE = 3  # the state: odometry (x, y, yaw), then the truth at the last step (x, y, yaw)
 
 
@@ -96,6 +97,18 @@ class Odometry:
     def reset(self, row: int, results: NDArray[np.float64]) -> None:
         """Start robot ``row``'s odometry at its true pose in its row of the kernel's results."""
         self.state[row, :POSE] = self.state[row, POSE:] = results[TRUTH_COLUMNS]
+
+    def advance_one(self, row: int, values: list[float], slip: NDArray[np.float64] | None) -> None:
+        """:meth:`advance` for one robot, from its row of the kernel's results as a list.
+
+        The single env's step: no fancy indexing, which took a tenth of its time at ``noise`` 0.
+        """
+        x, y, yaw = values[_X], values[_Y], values[_YAW]
+        if slip is None:
+            self.state[row] = (x, y, yaw, x, y, yaw)
+            return
+        truth = np.array([[x, y, yaw]])
+        integrate_travel(self.state, np.array([row], dtype=np.int64), truth, slip, self.separation)
 
     def advance(
         self,
