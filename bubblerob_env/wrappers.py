@@ -31,6 +31,7 @@ from gymnasium.utils import RecordConstructorArgs
 from numpy.typing import NDArray
 
 __all__ = [
+    "RESIDUAL_ON_LASER",
     "ActionNoise",
     "EpisodeSuccess",
     "LaserPooling",
@@ -44,6 +45,8 @@ LASER_POOLING = "bubblerob_env.wrappers.LaserPooling"
 ACTION_NOISE = "bubblerob_env.wrappers.ActionNoise"
 TRAINING_ONLY = (ACTION_NOISE,)
 """``env_wrapper`` entries that act only while training: a trained policy replays nothing."""
+RESIDUAL_ON_LASER = "policies.residual.ResidualOnLaser"
+"""The action side of a residual policy: ``load_policy`` replays it (``policies.residual``)."""
 
 
 def parse_env_wrapper(spec: Any) -> list[tuple[str, dict[str, Any]]]:
@@ -82,7 +85,7 @@ def laser_pooling(spec: Any) -> list[tuple[str, int]]:
     """
     steps = []
     for name, kwargs in parse_env_wrapper(spec):
-        if name in TRAINING_ONLY:
+        if name in TRAINING_ONLY or name == RESIDUAL_ON_LASER:
             continue
         if name != LASER_POOLING:
             raise ValueError(

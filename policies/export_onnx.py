@@ -159,7 +159,8 @@ def export_onnx(model_path: Path, out: Path | None = None) -> Path:
     import torch
 
     import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
-    from policies.loading import env_signature, recorded_pooling
+    from policies.loading import _recorded_config, env_signature, recorded_pooling
+    from policies.residual import residual_scale
 
     model_path = Path(model_path)
     out = model_path.with_suffix(".onnx") if out is None else Path(out)
@@ -206,6 +207,9 @@ def export_onnx(model_path: Path, out: Path | None = None) -> Path:
     }
     if pooling:
         info["observation_pooling"] = [[key, size] for key, size in pooling]
+    scale = residual_scale((_recorded_config(model_path) or {}).get("env_wrapper"))
+    if scale is not None:  # the graph's action is a correction to the gap follower's
+        info["residual"] = {"base": "laser", "scale": scale}
     env.close()
     graph = onnx.load(str(out))
     graph.producer_name = "bubblerob policies.export_onnx"

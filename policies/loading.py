@@ -21,6 +21,7 @@ from policies.observations import (
     check_observations,
     dict_view,
 )
+from policies.residual import residual_scale
 
 __all__ = [
     "BUILTIN_POLICIES",
@@ -177,7 +178,19 @@ def _load_onnx(
     if space is not None:
         _check_exact_keys(name, list(policy.input_names), space)
         check_observations(name, policy.observation_shapes, space)
-    return policy
+    residual = policy.metadata.get("residual")
+    if residual is None:
+        return policy
+    return _on_gap_follower(policy, env, space, float(residual["scale"]))
+
+
+def _on_gap_follower(
+    learnt: Policy, env: gym.Env[Any, Any] | None, space: gym.spaces.Dict | None, scale: float
+) -> Policy:
+    """``learnt``, a residual trained on the gap follower, with the gap follower for ``env``."""
+    from policies.residual import ResidualPolicy
+
+    return ResidualPolicy(learnt, _builtin("laser", _unwrap(env), space, 0), scale)
 
 
 def _check_exact_keys(name: str, keys: list[str], space: gym.spaces.Dict) -> None:
@@ -344,7 +357,10 @@ def _load_sb3(
             normalizer = pickle.load(handle)  # noqa: S301 - our own training output
         normalizer.training = False
         policy = NormalizedPolicy(model, normalizer)
-    return PooledPolicy(policy, pooling) if pooling else policy
+    if pooling:
+        policy = PooledPolicy(policy, pooling)
+    scale = residual_scale(config.get("env_wrapper"))
+    return policy if scale is None else _on_gap_follower(policy, env, space, scale)
 
 
 def _check_sb3_spaces(
