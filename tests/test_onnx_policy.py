@@ -21,6 +21,7 @@ from policies.loading import (
     recorded_pooling,
 )
 from policies.onnx_policy import OnnxPolicy
+from policies.residual import ResidualPolicy
 
 ROOT = Path(__file__).resolve().parents[1]
 TRAINED = ROOT / "policies" / "trained"
@@ -65,10 +66,15 @@ def _random_observations(space, count, seed=0):
     return [space.sample() for _ in range(count)]
 
 
+def _learnt(policy):
+    """The network of a policy: a residual policy's correction, else the policy itself."""
+    return policy.learnt if isinstance(policy, ResidualPolicy) else policy
+
+
 def test_shipped_ppo_is_the_onnx_export():
     assert SHIPPED_POLICIES["ppo"] == ONNX
     policy = load_policy("ppo", gym.make("BubbleRob-v0"))
-    assert isinstance(policy, OnnxPolicy)
+    assert isinstance(_learnt(policy), OnnxPolicy)
     assert isinstance(policy, Policy)
 
 
@@ -86,17 +92,20 @@ def test_onnx_actions_equal_the_sb3_models():
     pytest.importorskip("stable_baselines3")
     env = gym.make("BubbleRob-v0")
     sb3 = load_policy(TRAINED / "ppo_bubblerob_v0.zip", env)
-    onnx = load_policy("ppo", env)
+    shipped = load_policy("ppo", env)
+    # A residual policy: the networks are compared here, the sum in test_residual.py.
+    assert isinstance(sb3, ResidualPolicy) == isinstance(shipped, ResidualPolicy)
+    learnt_sb3, onnx = _learnt(sb3), _learnt(shipped)
     # A model trained behind LaserPooling: the ONNX graph takes the env's full scan and pools it
     # itself; the SB3 model is fed the pooled observations, computed here.
     pooling = recorded_pooling(TRAINED / "ppo_bubblerob_v0.zip")
-    model = sb3.policy if isinstance(sb3, PooledPolicy) else sb3
-    assert isinstance(sb3, PooledPolicy) == bool(pooling)
+    model = learnt_sb3.policy if isinstance(learnt_sb3, PooledPolicy) else learnt_sb3
+    assert isinstance(learnt_sb3, PooledPolicy) == bool(pooling)
     # Real observations from several seeds, driven by both policies and the gap follower (close
     # calls and collisions), and samples of the whole observation space (clipping).
     observations = (
         _env_observations(sb3)
-        + _env_observations(onnx, seeds=range(5, 8))
+        + _env_observations(shipped, seeds=range(5, 8))
         + _env_observations(load_policy("laser", env), seeds=range(8, 10))
         + _random_observations(env.observation_space, 2000)
     )
