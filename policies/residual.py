@@ -26,7 +26,14 @@ from numpy.typing import NDArray
 from bubblerob_env.wrappers import RESIDUAL_ON_LASER, parse_env_wrapper
 from policies.base import Observation, Policy
 
-__all__ = ["RESIDUAL_ON_LASER", "ResidualOnLaser", "ResidualPolicy", "residual_scale"]
+__all__ = [
+    "RESIDUAL_ON_LASER",
+    "ResidualOnLaser",
+    "ResidualPolicy",
+    "combine",
+    "residual_scale",
+    "without_residual",
+]
 
 
 def _check_scale(scale: Any) -> float:
@@ -45,6 +52,15 @@ def residual_scale(env_wrapper: Any) -> float | None:
                 raise ValueError(f"env_wrapper {name!r}: unknown arguments {unknown}")
             return _check_scale(kwargs.get("scale", 0.5))
     return None
+
+
+def without_residual(env_wrapper: Any) -> list[dict[str, dict[str, Any]]]:
+    """rl-zoo's ``env_wrapper`` without its :class:`ResidualOnLaser` (the batch applies it)."""
+    return [
+        {name: kwargs}
+        for name, kwargs in parse_env_wrapper(env_wrapper)
+        if name != RESIDUAL_ON_LASER
+    ]
 
 
 def combine(base: NDArray[Any], residual: NDArray[Any], scale: float) -> NDArray[np.float32]:

@@ -95,3 +95,24 @@ def test_trained_residual_loads_as_zip_and_onnx_alike(tmp_path: Path) -> None:
         expected = np.clip(laser.predict(obs)[0] + 0.5 * np.clip(network, -1, 1), -1, 1)
         assert np.abs(action - expected).max() <= 1e-6
         obs, *_ = env.step(action)
+
+
+def test_the_native_batch_applies_the_residual_as_each_env_does() -> None:
+    pytest.importorskip("stable_baselines3")
+    from stable_baselines3.common.env_util import make_vec_env
+
+    from policies.residual import without_residual
+    from train.train import _batched_envs, wrapper_class
+
+    spec = [{RESIDUAL: {"scale": 0.5}}, {"bubblerob_env.wrappers.LaserPooling": {"pool": 10}}]
+    batched = _batched_envs("BubbleRob-v0", 3, 0, {}, wrapper_class(without_residual(spec)), 0.5)
+    dummy = make_vec_env("BubbleRob-v0", n_envs=3, seed=0, wrapper_class=wrapper_class(spec))
+    first_b, first_d = batched.reset(), dummy.reset()
+    assert all(np.array_equal(first_b[k], first_d[k]) for k in first_d)
+    rng = np.random.default_rng(0)
+    for _ in range(150):
+        actions = rng.uniform(-1, 1, (3, 2)).astype(np.float32)
+        obs_b, rewards_b, dones_b, _ = batched.step(actions)
+        obs_d, rewards_d, dones_d, _ = dummy.step(actions)
+        assert all(np.array_equal(obs_b[k], obs_d[k]) for k in obs_d)
+        assert np.array_equal(rewards_b, rewards_d) and np.array_equal(dones_b, dones_d)

@@ -13,6 +13,7 @@ import yaml
 
 from policies import load_policy
 from policies.loading import NormalizedPolicy, PooledPolicy
+from policies.residual import ResidualPolicy
 from train import load_hyperparams
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -68,8 +69,11 @@ def test_training_script_runs_and_saves_a_reproducible_run(tmp_path, algo):
     if algo == "ppo":  # trained with normalize: true, its statistics travel with the model
         assert config["normalize"] is True
         assert (out / "model_vecnormalize.pkl").is_file()
-        policy = load_policy(out / "model.zip")
-        # ppo.yml's env_wrapper min-pools the scan: the policy pools, then normalises.
+        residual = load_policy(out / "model.zip")
+        # ppo.yml's env_wrapper: a correction to the gap follower (scale 0.5), whose network
+        # reads the min-pooled scan: the policy pools, then normalises.
+        assert isinstance(residual, ResidualPolicy) and residual.scale == 0.5
+        policy = residual.learnt
         assert isinstance(policy, PooledPolicy) and policy.pooling == [("laser", 10)]
         assert isinstance(policy.policy, NormalizedPolicy)
         obs, _ = gym.make("BubbleRob-v0").reset(seed=0)

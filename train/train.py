@@ -32,6 +32,7 @@ from typing import Any
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
 from policies.loading import NORMALIZATION_SUFFIX
 from policies.protocol import VALIDATION
+from policies.residual import residual_scale, without_residual
 from train.checks import check_hyperparams, check_train_arguments, parse_overrides
 from train.validation import (
     check_training_seeds,
@@ -213,10 +214,14 @@ def train(
     vec_cls = SubprocVecEnv if count > 1 and vec_env == "subproc" else DummyVecEnv
     torch.set_num_threads(int(torch_threads))
     if vec_env == "batched":
-        envs = _batched_envs(env_id, count, seed, env_kwargs, wrap)
+        spec, scale = config.get("env_wrapper"), residual_scale(config.get("env_wrapper"))
+        batch_wrap = wrapper_class(without_residual(spec)) if scale is not None else wrap
+        envs = _batched_envs(env_id, count, seed, env_kwargs, batch_wrap, scale)
         # The same wrapper chain as training's: VecNormalize's statistics are synced by walking
         # both chains in step.
-        eval_env = _batched_envs(env_id, eval_episodes, VALIDATION.start, env_kwargs, wrap)
+        eval_env = _batched_envs(
+            env_id, eval_episodes, VALIDATION.start, env_kwargs, batch_wrap, scale
+        )
     else:
         envs = make_vec_env(
             env_id,
@@ -308,24 +313,34 @@ def _non_image_keys(space: Any) -> list[str] | None:
 
 
 def _batched_envs(
-    env_id: str, count: int, seed: int, env_kwargs: dict[str, Any], wrap: Any = None
+    env_id: str,
+    count: int,
+    seed: int,
+    env_kwargs: dict[str, Any],
+    wrap: Any = None,
+    scale: float | None = None,
 ) -> Any:
     """``--vec-env batched``: the native batch (threads), as ``make_vec_env`` would seed it.
 
-    An ``env_wrapper`` of observation wrappers is applied to the whole batch (``LaserPooling``).
+    An ``env_wrapper`` of observation wrappers is applied to the whole batch (``LaserPooling``);
+    a residual on the gap follower (``scale``, its wrapper left out of ``wrap``) below them.
     """
     import gymnasium as gym
 
     from bubblerob_env.sb3 import BubbleRobSB3VecEnv, VecObservationWrapper
+    from policies.loading import load_policy
+    from train.vec_residual import VecResidualOnLaser
 
     if env_id != "BubbleRob-v0":
         raise ValueError(f"--vec-env batched steps BubbleRob-v0 only, not {env_id!r}")
-    envs = BubbleRobSB3VecEnv(count, **env_kwargs)
+    envs: Any = BubbleRobSB3VecEnv(count, **env_kwargs)
     envs.seed(seed)
     if wrap is None:
         return envs
     probe = gym.make(env_id, **env_kwargs)
     try:
+        if scale is not None:  # the residual acts on the raw batch, below the observation ones
+            envs = VecResidualOnLaser(envs, load_policy("laser", probe), scale)
         return VecObservationWrapper.from_env_wrapper(envs, wrap, probe)
     except ValueError:
         envs.close()
