@@ -37,7 +37,7 @@ def plot(run_dir: Path, out: Path) -> None:
     successes.set_xlabel("env steps (thousands)")
     successes.set_ylabel("success rate (%)")
     episodes = log["results"].shape[1]
-    fig.suptitle(f"PPO on BubbleRob-v0: {episodes} held-out episodes per evaluation")
+    fig.suptitle(f"PPO on BubbleRob-v0: {episodes} validation episodes per evaluation")
     fig.tight_layout()
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=100)
