@@ -32,7 +32,7 @@ from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
 
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
-from train.train import _batched_envs, _schedules, load_hyperparams, wrapper_class
+from train.train import _schedules, batched_envs, load_hyperparams, wrapper_class
 
 ALGO_KEYS = (
     "n_steps",
@@ -92,18 +92,18 @@ class StopAtSuccess(BaseCallback):
 
 
 def _training_envs(
-    n_envs: int, vec_env: str, env_kwargs: dict[str, Any] | None = None, wrap: Any = None
+    n_envs: int, vec_env: str, env_kwargs: dict[str, Any] | None = None, env_wrapper: Any = None
 ) -> Any:
     """``n_envs`` BubbleRobs seeded 0, 1, ...: SB3's DummyVecEnv, or the native batch."""
     if vec_env == "batched":
-        return _batched_envs("BubbleRob-v0", n_envs, 0, dict(env_kwargs or {}), wrap)
+        return batched_envs("BubbleRob-v0", n_envs, 0, dict(env_kwargs or {}), env_wrapper)
     return make_vec_env(
         "BubbleRob-v0",
         n_envs=n_envs,
         seed=0,
         vec_env_cls=DummyVecEnv,
         env_kwargs=env_kwargs,
-        wrapper_class=wrap,
+        wrapper_class=wrapper_class(env_wrapper),
     )
 
 
@@ -114,7 +114,9 @@ def time_to_success(
     torch.set_num_threads(int(config.get("torch_threads", 1)))
     # The shipped training setup: the config's reward (env_kwargs) and observation wrapper.
     wrap = wrapper_class(config.get("env_wrapper"))
-    envs: Any = _training_envs(int(config["n_envs"]), vec_env, config.get("env_kwargs"), wrap)
+    envs: Any = _training_envs(
+        int(config["n_envs"]), vec_env, config.get("env_kwargs"), config.get("env_wrapper")
+    )
     if config.get("normalize"):
         envs = VecNormalize(envs, gamma=float(config["gamma"]))
     kwargs = _schedules({k: config[k] for k in ALGO_KEYS if k in config})

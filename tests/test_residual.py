@@ -101,11 +101,10 @@ def test_the_native_batch_applies_the_residual_as_each_env_does() -> None:
     pytest.importorskip("stable_baselines3")
     from stable_baselines3.common.env_util import make_vec_env
 
-    from policies.residual import without_residual
-    from train.train import _batched_envs, wrapper_class
+    from train.train import batched_envs, wrapper_class
 
     spec = [{RESIDUAL: {"scale": 0.5}}, {"bubblerob_env.wrappers.LaserPooling": {"pool": 10}}]
-    batched = _batched_envs("BubbleRob-v0", 3, 0, {}, wrapper_class(without_residual(spec)), 0.5)
+    batched = batched_envs("BubbleRob-v0", 3, 0, {}, spec)
     dummy = make_vec_env("BubbleRob-v0", n_envs=3, seed=0, wrapper_class=wrapper_class(spec))
     first_b, first_d = batched.reset(), dummy.reset()
     assert all(np.array_equal(first_b[k], first_d[k]) for k in first_d)

@@ -214,14 +214,11 @@ def train(
     vec_cls = SubprocVecEnv if count > 1 and vec_env == "subproc" else DummyVecEnv
     torch.set_num_threads(int(torch_threads))
     if vec_env == "batched":
-        spec, scale = config.get("env_wrapper"), residual_scale(config.get("env_wrapper"))
-        batch_wrap = wrapper_class(without_residual(spec)) if scale is not None else wrap
-        envs = _batched_envs(env_id, count, seed, env_kwargs, batch_wrap, scale)
+        spec = config.get("env_wrapper")
+        envs = batched_envs(env_id, count, seed, env_kwargs, spec)
         # The same wrapper chain as training's: VecNormalize's statistics are synced by walking
         # both chains in step.
-        eval_env = _batched_envs(
-            env_id, eval_episodes, VALIDATION.start, env_kwargs, batch_wrap, scale
-        )
+        eval_env = batched_envs(env_id, eval_episodes, VALIDATION.start, env_kwargs, spec)
     else:
         envs = make_vec_env(
             env_id,
@@ -310,6 +307,15 @@ def _non_image_keys(space: Any) -> list[str] | None:
     if not isinstance(space, spaces.Dict):
         return None
     return [key for key, sub in space.spaces.items() if not is_image_space(sub)]
+
+
+def batched_envs(
+    env_id: str, count: int, seed: int, env_kwargs: dict[str, Any], env_wrapper: Any = None
+) -> Any:
+    """``--vec-env batched`` with rl-zoo's ``env_wrapper`` (see :func:`_batched_envs`)."""
+    scale = residual_scale(env_wrapper)
+    spec = env_wrapper if scale is None else without_residual(env_wrapper)
+    return _batched_envs(env_id, count, seed, env_kwargs, wrapper_class(spec), scale)
 
 
 def _batched_envs(
