@@ -54,8 +54,9 @@ for _robot in ROBOTS.values():
     register(
         id=_robot.env_id,
         entry_point="bubblerob_env.env:BubbleRobEnv",
-        # gym.make_vec(..., vectorization_mode="vector_entry_point"): N robots stepped per call.
-        vector_entry_point="bubblerob_env.vector:BubbleRobVectorEnv",
+        # gym.make_vec(..., vectorization_mode="vector_entry_point"): N robots stepped per call
+        # (backend="cpu", the default, or backend="warp": bubblerob_env.backends).
+        vector_entry_point="bubblerob_env.backends:make_vector_env",
         max_episode_steps=1000,
         # The env's default robot takes no kwarg: BubbleRob-v0's spec (and the env_kwargs its
         # bags record) stay {}.

@@ -44,7 +44,7 @@ from bubblerob_env.env import BubbleRobEnv
 from bubblerob_env.infos import batched_step_info, robot_step_info
 from bubblerob_env.odometry import Odometry, draw_slip
 
-__all__ = ["ARENA_MEMORY", "BubbleRobVectorEnv", "collate_infos"]
+__all__ = ["ARENA_MEMORY", "BubbleRobVectorEnv", "add_finals", "collate_infos"]
 
 ARENA_MEMORY = 256 * 1024
 """Bytes of each robot's ``MjData`` arena (contacts, constraints, stack) instead of MuJoCo's 13 MB
@@ -200,7 +200,7 @@ class BubbleRobVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
             self._odometry.poses,
         )
         if finals:
-            self._add_finals(info, finals, diverged)
+            add_finals(info, finals, self.num_envs)
         return obs, rewards, terminated, truncated, info
 
     def step_robots(
@@ -386,23 +386,6 @@ class BubbleRobVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
             return np.concatenate(list(parts.values()), axis=1)
         return parts
 
-    def _add_finals(
-        self,
-        info: dict[str, Any],
-        finals: dict[int, tuple[Any, dict[str, Any]]],
-        diverged: dict[int, str],
-    ) -> None:
-        done = np.zeros(self.num_envs, dtype=bool)
-        done[list(finals)] = True
-        final_obs = np.empty(self.num_envs, dtype=object)
-        for i in range(self.num_envs):
-            final_obs[i] = finals[i][0] if i in finals else None
-        info["final_obs"], info["_final_obs"] = final_obs, done
-        info["final_info"] = collate_infos(
-            [finals[i][1] if i in finals else {} for i in range(self.num_envs)]
-        )
-        info["_final_info"] = done
-
     def _check_open(self, method: str) -> None:
         if self._closed:
             raise RuntimeError(f"{method}() called after close(); make a new vector env")
@@ -453,6 +436,22 @@ def _robot_obs(obs: Any, i: int) -> Any:
     if isinstance(obs, dict):
         return {key: value[i].copy() for key, value in obs.items()}
     return obs[i].copy()
+
+
+def add_finals(
+    info: dict[str, Any], finals: dict[int, tuple[Any, dict[str, Any]]], num_envs: int
+) -> None:
+    """``SameStep`` autoreset: the last observation and ``info`` of the robots in ``finals``."""
+    done = np.zeros(num_envs, dtype=bool)
+    done[list(finals)] = True
+    final_obs = np.empty(num_envs, dtype=object)
+    for i in range(num_envs):
+        final_obs[i] = finals[i][0] if i in finals else None
+    info["final_obs"], info["_final_obs"] = final_obs, done
+    info["final_info"] = collate_infos(
+        [finals[i][1] if i in finals else {} for i in range(num_envs)]
+    )
+    info["_final_info"] = done
 
 
 def collate_infos(infos: list[dict[str, Any]]) -> dict[str, Any]:

@@ -1,0 +1,309 @@
+"""The worlds on the device: MuJoCo Warp's model and data, the readings, and one step's launches.
+
+:class:`DeviceWorlds` owns every device array of a :class:`~bubblerob_env.mjwarp.WarpVectorEnv`
+and launches, per control step: the wheel commands, ``physics_substeps`` times MuJoCo Warp's
+``step2`` + ``step1`` (the CPU kernel's order: kinematics, contacts and sensors of the final
+state) with the collision check after each, then the laser's rays and the readings, reward,
+odometry and episode flags. Per-world obstacle sizes are batched model fields
+(``put_model(..., batch_sizes=...)``); obstacle poses are per-world mocap state.
+"""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+from typing import Any
+
+import mujoco
+import mujoco_warp as mjw
+import numpy as np
+import warp as wp
+from mujoco_warp._src.types import vec6
+from numpy.typing import NDArray
+
+from bubblerob_env import names
+from bubblerob_env.core.kernel import OUT, OUT_SIZE
+from bubblerob_env.env import BubbleRobEnv
+from bubblerob_env.mjwarp import kernels as K
+from bubblerob_env.mjwarp.layouts import LayoutTable, slot_geoms
+
+__all__ = ["CONTACTS_PER_WORLD", "CONSTRAINTS_PER_WORLD", "DeviceWorlds"]
+
+CONTACTS_PER_WORLD = 16
+"""Contacts allocated per world (the CPU env's longest random runs used at most 6)."""
+CONSTRAINTS_PER_WORLD = 64
+"""Constraint rows allocated per world (the CPU env used at most 21)."""
+_BATCHED_FIELDS = ("geom_size", "geom_rbound", "geom_aabb")
+
+
+def _settings(env: BubbleRobEnv, max_episode_steps: int | None) -> K.Settings:
+    s = K.Settings()
+    model, drive, spec = env.model, env.drive, env.laser_spec
+    s.twist = int(env.action_type == "twist")
+    s.max_wheel, s.max_linear = drive.max_wheel_speed, env.max_linear_speed
+    s.max_angular, s.wheel_radius = env.max_angular_speed, drive.wheel_radius
+    s.wheel_separation = drive.wheel_separation
+    s.has_laser = int(spec is not None)
+    s.range_max = spec.range_max if spec is not None else 0.0
+    s.noisy_ceiling = float(np.nextafter(np.float32(s.range_max), np.float32(0)))
+    s.laser_noise = spec.noise_std if spec is not None else 0.0
+    s.proximity_max = env.proximity_spec.range_max
+    s.limit_linear, s.limit_angular = (float(v) for v in env._velocity_limit)
+    s.forward_weight, s.spin_weight = env.forward_reward_weight, env.spin_cost_weight
+    s.clearance_weight, s.clearance_distance = env.clearance_cost_weight, env.clearance_distance
+    s.hull, s.collision_penalty = env.robot.radius, env.collision_penalty
+    s.terminate_on_collision = int(env.terminate_on_collision)
+    s.max_episode_steps = max_episode_steps or 0
+    s.odometry_noise = env.odometry_noise
+    s.velocity_adr = int(model.sensor(names.VELOCIMETER_SENSOR).adr[0])
+    s.gyro_adr = int(model.sensor(names.GYRO_SENSOR).adr[0])
+    s.left_wheel_adr = int(model.sensor(names.LEFT_WHEEL_SPEED_SENSOR).adr[0])
+    s.right_wheel_adr = int(model.sensor(names.RIGHT_WHEEL_SPEED_SENSOR).adr[0])
+    s.proximity_adr = int(model.sensor(names.PROXIMITY_SENSOR).adr[0])
+    s.root_qpos = int(model.joint(names.ROOT_JOINT).qposadr[0])
+    s.root_dof = int(model.joint(names.ROOT_JOINT).dofadr[0])
+    s.laser_site = int(model.site(names.LASER_SITE).id)
+    return s
+
+
+class DeviceWorlds:
+    """``n`` worlds of ``env``'s model on ``device``, and their readings and episode state."""
+
+    def __init__(
+        self, env: BubbleRobEnv, n: int, device: str | None, max_episode_steps: int | None
+    ) -> None:
+        self.device = wp.get_device(device)
+        self.n = n
+        self.substeps = env.physics_substeps
+        self.settings = _settings(env, max_episode_steps)
+        spec = env.laser_spec
+        self.nray = spec.num_rays if spec is not None else 0
+        model = env.model
+        groups = np.clip(model.geom_group, 0, mujoco.mjNGROUP - 1)
+        with wp.ScopedDevice(self.device):
+            self.model = mjw.put_model(model, batch_sizes=dict.fromkeys(_BATCHED_FIELDS, n))
+            self.data = mjw.make_data(
+                model, nworld=n, nconmax=CONTACTS_PER_WORLD, njmax=CONSTRAINTS_PER_WORLD
+            )
+            self.is_obstacle = wp.array((groups == names.OBSTACLE_GROUP).astype(np.int32))
+            self.slot_geoms = wp.array(slot_geoms(env))
+            self.actions = wp.zeros((n, 2), dtype=float)
+            self.collision = wp.zeros(n, dtype=int)
+            self.nearest = wp.zeros(n, dtype=float)
+            self.seeds = wp.zeros(n, dtype=int)
+            self.state = wp.zeros((n, K.STATE_SIZE), dtype=int)
+            self.odometry = wp.zeros((n, 6), dtype=float)
+            self.laser = wp.zeros((n, max(self.nray, 1)), dtype=float)
+            self.proximity = wp.zeros((n, 1), dtype=float)
+            self.velocity = wp.zeros((n, 2), dtype=float)
+            self.out = wp.zeros((n, OUT_SIZE), dtype=float)
+            self.all_worlds = wp.ones(n, dtype=int)
+            self.resetting = wp.zeros(n, dtype=int)
+            self.active = wp.zeros(n, dtype=int)
+            self.bad = wp.zeros(2, dtype=int)
+            self.rows = wp.zeros(n, dtype=int)
+            self._rays(spec, groups)
+
+    def _rays(self, spec: Any, groups: NDArray[np.int32]) -> None:
+        nray = max(self.nray, 1)
+        local = np.zeros((nray, 3), dtype=np.float32)
+        if spec is not None:
+            angles = spec.angles()
+            local[:, 0], local[:, 1] = np.cos(angles), np.sin(angles)
+        self.local_dirs = wp.array(local, dtype=wp.vec3)
+        self.pnt = wp.zeros((self.n, nray), dtype=wp.vec3)
+        self.vec = wp.zeros((self.n, nray), dtype=wp.vec3)
+        self.dist = wp.zeros((self.n, nray), dtype=float)
+        self.geomid = wp.zeros((self.n, nray), dtype=int)
+        self.normal = wp.zeros((self.n, nray), dtype=wp.vec3)
+        self.bodyexclude = wp.full(nray, -1, dtype=int)
+        group = [0] * 6
+        group[names.OBSTACLE_GROUP] = 1  # the laser sees walls and obstacles only
+        self.geomgroup = vec6(*group)
+
+    def noise_seeds(self, seeds: NDArray[np.int64], chosen: NDArray[np.bool_]) -> None:
+        """Each chosen world's noise stream from its seed (laser noise and wheel slip)."""
+        host = self.seeds.numpy()
+        host[chosen] = (seeds[chosen] % (2**31 - 1)).astype(np.int32)
+        self.seeds.assign(host)
+
+    def set_actions(self, actions: Any) -> None:
+        """Copy the actions to the device, or a ``ValueError`` (nothing moves) if one is bad."""
+        if isinstance(actions, np.ndarray) or not hasattr(actions, "__dlpack__"):
+            self.actions.assign(_checked(actions, self.n))
+            return
+        source = actions if isinstance(actions, wp.array) else wp.from_dlpack(actions)
+        if source.shape != (self.n, 2):
+            raise ValueError(f"actions must have shape ({self.n}, 2), got {source.shape}")
+        wp.copy(self.actions, source)
+        self.bad.assign(np.array([0, self.n], dtype=np.int32))
+        wp.launch(K.check_actions, self.n, inputs=[self.actions, self.bad], device=self.device)
+        flag, first = self.bad.numpy().tolist()
+        if flag:
+            raise ValueError(
+                f"actions of robot {first} contain NaN or infinity; actions must be finite "
+                "numbers, and are clipped to [-1, 1]; no robot was stepped"
+            )
+
+    def physics(self) -> None:
+        """Wheel commands, then the substeps with a collision check after each."""
+        m, d, n = self.model, self.data, self.n
+        with wp.ScopedDevice(self.device):
+            wp.launch(K.apply_command, n, inputs=[self.actions, self.settings, d.ctrl, self.out])
+            self.collision.zero_()
+            for _ in range(self.substeps):
+                mjw.step2(m, d)
+                mjw.step1(m, d)
+                wp.launch(
+                    K.flag_collisions,
+                    d.naconmax,
+                    inputs=[d.nacon, d.contact.geom, d.contact.worldid, self.is_obstacle],
+                    outputs=[self.collision],
+                )
+
+    def reset(self, chosen: NDArray[np.bool_], table: LayoutTable, rows: NDArray[np.int32]) -> None:
+        """Reset the chosen worlds to ``table``'s ``rows[w]`` (at rest, time 0)."""
+        m, d, n = self.model, self.data, self.n
+        with wp.ScopedDevice(self.device):
+            self.resetting.assign(chosen.astype(np.int32))
+            self.rows.assign(rows.astype(np.int32))
+            mask = wp.array(chosen, dtype=bool)
+            mjw.reset_data(m, d, reset=mask)
+            wp.launch(
+                K.place_mocaps,
+                (n, d.mocap_pos.shape[1]),
+                inputs=[self.resetting, self.rows, table.pos, table.quat],
+                outputs=[d.mocap_pos, d.mocap_quat],
+            )
+            wp.launch(
+                K.place_geoms,
+                (n, self.slot_geoms.shape[0]),
+                inputs=[self.resetting, self.rows, self.slot_geoms, table.size, table.rbound],
+                outputs=[m.geom_size, m.geom_rbound, m.geom_aabb],
+            )
+            wp.launch(
+                K.place_robots,
+                n,
+                inputs=[self.resetting, self.rows, table.root, self.settings],
+                outputs=[d.qpos],
+            )
+            # Kinematics, contacts and sensors of the new states: the other worlds' are
+            # recomputed from unchanged states, to the same values.
+            mjw.step1(m, d)
+
+    def sense(self, active: NDArray[np.bool_] | None, resetting: NDArray[np.bool_]) -> None:
+        """The laser, readings, reward, odometry and flags of the ``active`` worlds (None: all)."""
+        m, d, n, s = self.model, self.data, self.n, self.settings
+        with wp.ScopedDevice(self.device):
+            self.resetting.assign(resetting.astype(np.int32))
+            worlds = self.all_worlds
+            if active is not None:
+                self.active.assign(active.astype(np.int32))
+                worlds = self.active
+            if self.nray:
+                wp.launch(
+                    K.world_rays,
+                    (n, self.nray),
+                    inputs=[d.site_xpos, d.site_xmat, s.laser_site, self.local_dirs],
+                    outputs=[self.pnt, self.vec],
+                )
+                mjw.rays(
+                    m,
+                    d,
+                    self.pnt,
+                    self.vec,
+                    self.geomgroup,
+                    True,
+                    self.bodyexclude,
+                    self.dist,
+                    self.geomid,
+                    self.normal,
+                )
+                self.nearest.fill_(math.inf)
+                wp.launch(
+                    K.laser_readings,
+                    (n, self.nray),
+                    inputs=[self.dist, s, self.seeds, self.state, worlds],
+                    outputs=[self.laser, self.nearest],
+                )
+            wp.launch(
+                K.sense,
+                n,
+                inputs=[
+                    d.sensordata,
+                    d.qpos,
+                    d.qvel,
+                    d.time,
+                    s,
+                    self.collision,
+                    self.nearest,
+                    self.seeds,
+                    worlds,
+                    self.resetting,
+                ],
+                outputs=[self.state, self.odometry, self.proximity, self.velocity, self.out],
+            )
+
+    def fetch(self, rewards: NDArray[np.float64] | None = None) -> SimpleNamespace:
+        """The host's copy of what ``info`` and the numpy outputs need."""
+        out = self.out.numpy().astype(np.float64)
+        state = self.state.numpy()
+        return SimpleNamespace(
+            out=out,
+            laser=self.laser.numpy()[:, : self.nray].copy(),
+            proximity=self.proximity.numpy().copy(),
+            velocity=self.velocity.numpy().copy(),
+            odometry=self.odometry.numpy()[:, :3].astype(np.float64),
+            rewards=out[:, int(OUT.REWARD)].copy() if rewards is None else rewards,
+            terminated=state[:, K.TERMINATED] != 0,
+            truncated=state[:, K.TRUNCATED] != 0,
+            diverged=out[:, int(OUT.DIVERGED)] != 0.0,
+            collided=state[:, K.COLLIDED] != 0,
+            clipped_actions=state[:, K.CLIPPED_COUNT].astype(np.int64),
+        )
+
+    def device_observations(self, obs_mode: str) -> Any:
+        """The observations as new device arrays: a dict, or one flat array."""
+        with wp.ScopedDevice(self.device):
+            if obs_mode == "flat":
+                flat = wp.empty((self.n, self.nray + 3), dtype=float)
+                wp.launch(
+                    K.flatten_observations,
+                    self.n,
+                    inputs=[self.laser, self.nray, self.proximity, self.velocity],
+                    outputs=[flat],
+                )
+                return flat
+            parts = {"laser": self.laser} if self.nray else {}
+            parts.update(proximity=self.proximity, velocity=self.velocity)
+            return {key: wp.clone(array) for key, array in parts.items()}
+
+    def device_results(
+        self, terminated: NDArray[np.bool_], truncated: NDArray[np.bool_]
+    ) -> tuple[wp.array, wp.array, wp.array]:
+        """Rewards (float32), terminations and truncations (bool) as new device arrays.
+
+        The episode flags come from the host, where the step's autoresets were settled.
+        """
+        with wp.ScopedDevice(self.device):
+            rewards = wp.empty(self.n, dtype=float)
+            wp.launch(K.gather_rewards, self.n, inputs=[self.out], outputs=[rewards])
+            return rewards, wp.array(terminated, dtype=bool), wp.array(truncated, dtype=bool)
+
+
+def _checked(actions: Any, n: int) -> NDArray[np.float32]:
+    try:
+        checked = np.asarray(actions, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError) as error:
+        raise ValueError(f"actions must be {n} rows of 2 finite numbers: {error}") from None
+    if checked.shape != (n, 2):
+        raise ValueError(f"actions must have shape ({n}, 2), got {checked.shape}")
+    bad = ~np.isfinite(checked).all(axis=1)
+    if bad.any():
+        rows = np.flatnonzero(bad)
+        raise ValueError(
+            f"actions of robot(s) {rows.tolist()} contain NaN or infinity "
+            f"({checked[rows[0]].tolist()}); actions must be finite numbers, and are clipped "
+            "to [-1, 1]; no robot was stepped"
+        )
+    return checked.astype(np.float32)
