@@ -134,9 +134,9 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
         world_seeds = np.array([drawn[i] if s is None else s for i, s in enumerate(seeds)])
         if self._bank is None or base is not None:
             start = int(base if base is not None else drawn[0]) + self.num_envs
-            self._bank = LayoutTable(
-                self._template, range(start, start + self.layout_bank), self.device
-            )
+            if self._bank is None or int(self._bank.seeds[0]) != start:  # kept across resets
+                seeds_ = range(start, start + self.layout_bank)
+                self._bank = LayoutTable(self._template, seeds_, self.device)
         rows = np.flatnonzero(chosen)
         table = LayoutTable(self._template, world_seeds[rows].tolist(), self.device)
         table_rows = np.zeros(self.num_envs, dtype=np.int32)
