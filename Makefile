@@ -37,6 +37,7 @@ TF2_INPUTS := pyproject.toml bubblerob_env/ros/live/ros2_msgs.py bubblerob_env/r
 TORCH_REPORT := $(VENV)/.torch-install-report.json
 
 .PHONY: help demo test demo-setup test-setup debs-demo debs-test venv venv-demo kernel venv-all torch \
+	warp-kernels \
 	venv-ros2 tf2-msgs test-clients
 
 help:
@@ -59,7 +60,7 @@ test: test-setup
 	python -m pytest $(PYTEST_ARGS)
 
 demo-setup: debs-demo venv venv-demo kernel
-test-setup: demo-setup debs-test torch venv-all venv-ros2 tf2-msgs
+test-setup: demo-setup debs-test torch venv-all warp-kernels venv-ros2 tf2-msgs
 
 # The client libraries' tests skip in make test (not installed there): here they run, in their
 # own venv with CPU torch, the project and those libraries.
@@ -137,6 +138,19 @@ venv-all: venv torch
 	  echo "setup: installing .[all] into $(VENV)"
 	  $(VENV)/bin/pip install -e ".[all]"
 	  sha256sum $(PIP_INPUTS) > $(VENV)/.stamp-all
+	fi
+
+# MuJoCo Warp (in .[all]) compiles its kernels on first use, about 90 s on two cores, and keeps them
+# in Warp's kernel cache: compile them here, once, for the CPU device the tests use.
+WARP_INPUTS := pyproject.toml bubblerob_env/mjwarp/kernels.py
+warp-kernels: venv-all
+	@if sha256sum --check --status $(VENV)/.stamp-warp-kernels 2>/dev/null \
+	  && [ -d "$${HOME}/.cache/warp" ]; then
+	  echo "setup: MuJoCo Warp's kernels are compiled (Warp's kernel cache): skipped"
+	else
+	  echo "setup: compiling MuJoCo Warp's kernels for the CPU device (once; Warp's kernel cache)"
+	  $(VENV)/bin/python -m bubblerob_env.mjwarp cpu
+	  sha256sum $(WARP_INPUTS) > $(VENV)/.stamp-warp-kernels
 	fi
 
 # Prints which torch is in the venv, which build, and where pip took it from (the report that

@@ -156,3 +156,47 @@ def test_twist_actions_and_time_limits_pass_through() -> None:
     env.step(np.tile([[1.0, 0.0]], (N, 1)))
     _, _, _, truncated, info = env.step(np.tile([[1.0, 0.0]], (N, 1)))
     assert truncated.all() and (info["body_twist"][:, 0] > 0.1).all()
+
+
+def test_speed_benchmark_prints_its_table_naming_the_device() -> None:
+    """Smoke only: bench/warp_speed.py measures speed; a test never does."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    result = subprocess.run(
+        [
+            sys.executable,
+            str(root / "bench" / "warp_speed.py"),
+            "--device",
+            "cpu",
+            "--sizes",
+            "4",
+            "--steps",
+            "2",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        cwd=root,
+    )
+    assert result.returncode == 0, result.stderr[-2000:]
+    for row in ("device: cpu", "anchor: CPU native batch, N=64", "| 4 |", "MuJoCo Warp floor"):
+        assert row in result.stdout
+
+
+def test_readme_example_runs() -> None:
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    readme = (root / "README.md").read_text()
+    blocks = [part.split("```")[0] for part in readme.split("```python\n")[1:]]
+    (code,) = [block for block in blocks if 'backend="warp"' in block]
+    result = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=600, cwd=root
+    )
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert "warp laser batch (16, 360) on cpu" in result.stdout

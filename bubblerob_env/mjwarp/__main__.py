@@ -1,0 +1,32 @@
+"""``python -m bubblerob_env.mjwarp``: compile MuJoCo Warp's and the backend's kernels once.
+
+Warp compiles kernels on first use (about 90 s on two CPU cores for the CPU device) and keeps
+them in its kernel cache (``~/.cache/warp``), where later runs load them in seconds. ``make
+test``'s set-up runs this, so that the tests do not pay the compile; on a GPU machine, pass the
+device (``cuda:0``) to compile its kernels too.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import numpy as np
+
+from bubblerob_env.mjwarp import WarpVectorEnv
+
+
+def main(devices: list[str]) -> None:
+    """Build two worlds per device and step them through a reset and an autoreset."""
+    for device in devices:
+        started = time.perf_counter()
+        env = WarpVectorEnv(2, device=device, max_episode_steps=2, layout_bank=2)
+        env.reset(seed=0)
+        for _ in range(3):
+            env.step(np.zeros((2, 2), dtype=np.float32))
+        env.close()
+        print(f"MuJoCo Warp kernels ready on {device} ({time.perf_counter() - started:.0f} s)")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:] or ["cpu"])
