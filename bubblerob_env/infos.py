@@ -7,15 +7,31 @@ The single env and the batch build ``info`` here, from the same columns of
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
 from bubblerob_env.core.kernel import OUT
-from bubblerob_env.core.robots import RobotBatch
 
-__all__ = ["batched_step_info", "robot_info", "robot_step_info"]
+__all__ = ["Results", "batched_step_info", "robot_info", "robot_step_info"]
+
+
+class Results(Protocol):
+    """Where the numbers come from.
+
+    The kernel's :class:`~bubblerob_env.core.robots.RobotBatch`, or the MuJoCo Warp backend's
+    host copy of its device arrays (:class:`~bubblerob_env.mjwarp.device.HostCopy`).
+    """
+
+    @property
+    def out(self) -> NDArray[np.float64]:
+        """Per robot, the :class:`~bubblerob_env.core.kernel.OUT` columns."""
+
+    @property
+    def proximity(self) -> NDArray[np.float32]:
+        """Per robot, the proximity reading ``(n, 1)``."""
+
 
 # (key, first column, width): width 0 is a float scalar, a width an array of that many floats.
 _FLOAT_COLUMNS = (
@@ -39,7 +55,7 @@ _REWARD_COLUMNS = (
 
 
 def robot_info(
-    core: RobotBatch,
+    core: Results,
     i: int,
     trigger_distance: float,
     clipped_actions: int,
@@ -66,7 +82,7 @@ def robot_info(
 
 
 def robot_step_info(
-    core: RobotBatch,
+    core: Results,
     i: int,
     trigger_distance: float,
     collided: bool,
@@ -83,7 +99,7 @@ def robot_step_info(
 
 
 def batched_step_info(
-    core: RobotBatch,
+    core: Results,
     trigger_distance: float,
     collided: NDArray[np.bool_],
     clipped_actions: NDArray[np.int64],

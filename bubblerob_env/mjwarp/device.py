@@ -11,7 +11,7 @@ odometry and episode flags. Per-world obstacle sizes are batched model fields
 from __future__ import annotations
 
 import math
-from types import SimpleNamespace
+from dataclasses import dataclass
 from typing import Any
 
 import mujoco
@@ -27,13 +27,30 @@ from bubblerob_env.env import BubbleRobEnv
 from bubblerob_env.mjwarp import kernels as K
 from bubblerob_env.mjwarp.layouts import LayoutTable, slot_geoms
 
-__all__ = ["CONTACTS_PER_WORLD", "CONSTRAINTS_PER_WORLD", "DeviceWorlds"]
+__all__ = ["CONTACTS_PER_WORLD", "CONSTRAINTS_PER_WORLD", "DeviceWorlds", "HostCopy"]
 
 CONTACTS_PER_WORLD = 16
 """Contacts allocated per world (the CPU env's longest random runs used at most 6)."""
 CONSTRAINTS_PER_WORLD = 64
 """Constraint rows allocated per world (the CPU env used at most 21)."""
 _BATCHED_FIELDS = ("geom_size", "geom_rbound", "geom_aabb")
+
+
+@dataclass(frozen=True)
+class HostCopy:
+    """What ``info`` and the numpy outputs need, copied from the device after a step."""
+
+    out: NDArray[np.float64]
+    laser: NDArray[np.float32]
+    proximity: NDArray[np.float32]
+    velocity: NDArray[np.float32]
+    odometry: NDArray[np.float64]
+    rewards: NDArray[np.float64]
+    terminated: NDArray[np.bool_]
+    truncated: NDArray[np.bool_]
+    diverged: NDArray[np.bool_]
+    collided: NDArray[np.bool_]
+    clipped_actions: NDArray[np.int64]
 
 
 def _settings(env: BubbleRobEnv, max_episode_steps: int | None) -> K.Settings:
@@ -85,8 +102,10 @@ class DeviceWorlds:
             self.data = mjw.make_data(
                 model, nworld=n, nconmax=CONTACTS_PER_WORLD, njmax=CONSTRAINTS_PER_WORLD
             )
-            self.is_obstacle = wp.array((groups == names.OBSTACLE_GROUP).astype(np.int32))
-            self.slot_geoms = wp.array(slot_geoms(env))
+            self.is_obstacle: wp.array[Any] = wp.array(
+                (groups == names.OBSTACLE_GROUP).astype(np.int32)
+            )
+            self.slot_geoms: wp.array[Any] = wp.array(slot_geoms(env))
             self.actions = wp.zeros((n, 2), dtype=float)
             self.collision = wp.zeros(n, dtype=int)
             self.nearest = wp.zeros(n, dtype=float)
@@ -110,7 +129,7 @@ class DeviceWorlds:
         if spec is not None:
             angles = spec.angles()
             local[:, 0], local[:, 1] = np.cos(angles), np.sin(angles)
-        self.local_dirs = wp.array(local, dtype=wp.vec3)
+        self.local_dirs: wp.array[Any] = wp.array(local, dtype=wp.vec3)
         self.pnt = wp.zeros((self.n, nray), dtype=wp.vec3)
         self.vec = wp.zeros((self.n, nray), dtype=wp.vec3)
         self.dist = wp.zeros((self.n, nray), dtype=float)
@@ -133,6 +152,7 @@ class DeviceWorlds:
             self.actions.assign(_checked(actions, self.n))
             return
         source = actions if isinstance(actions, wp.array) else wp.from_dlpack(actions)
+        assert isinstance(source, wp.array)
         if source.shape != (self.n, 2):
             raise ValueError(f"actions must have shape ({self.n}, 2), got {source.shape}")
         wp.copy(self.actions, source)
@@ -167,7 +187,7 @@ class DeviceWorlds:
         with wp.ScopedDevice(self.device):
             self.resetting.assign(chosen.astype(np.int32))
             self.rows.assign(rows.astype(np.int32))
-            mask = wp.array(chosen, dtype=bool)
+            mask: wp.array[Any] = wp.array(chosen, dtype=bool)
             mjw.reset_data(m, d, reset=mask)
             wp.launch(
                 K.place_mocaps,
@@ -244,11 +264,11 @@ class DeviceWorlds:
                 outputs=[self.state, self.odometry, self.proximity, self.velocity, self.out],
             )
 
-    def fetch(self, rewards: NDArray[np.float64] | None = None) -> SimpleNamespace:
-        """The host's copy of what ``info`` and the numpy outputs need."""
+    def fetch(self, rewards: NDArray[np.float64] | None = None) -> HostCopy:
+        """The host's copy of the step (``rewards``: keep these, a SameStep reset's pass)."""
         out = self.out.numpy().astype(np.float64)
         state = self.state.numpy()
-        return SimpleNamespace(
+        return HostCopy(
             out=out,
             laser=self.laser.numpy()[:, : self.nray].copy(),
             proximity=self.proximity.numpy().copy(),
@@ -280,7 +300,7 @@ class DeviceWorlds:
 
     def device_results(
         self, terminated: NDArray[np.bool_], truncated: NDArray[np.bool_]
-    ) -> tuple[wp.array, wp.array, wp.array]:
+    ) -> tuple[wp.array[Any], wp.array[Any], wp.array[Any]]:
         """Rewards (float32), terminations and truncations (bool) as new device arrays.
 
         The episode flags come from the host, where the step's autoresets were settled.

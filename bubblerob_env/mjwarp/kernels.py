@@ -97,7 +97,7 @@ class Settings:
 
 
 @wp.kernel
-def check_actions(actions: wp.array2d[float], bad: wp.array[int]) -> None:  # type: ignore[valid-type]
+def check_actions(actions: wp.array2d[float], bad: wp.array[int]) -> None:
     """``bad[0]`` = 1 + the lowest world whose action is NaN or infinite (0: none)."""
     w = wp.tid()
     if not (wp.isfinite(actions[w, 0]) and wp.isfinite(actions[w, 1])):
@@ -107,10 +107,10 @@ def check_actions(actions: wp.array2d[float], bad: wp.array[int]) -> None:  # ty
 
 @wp.kernel
 def apply_command(
-    actions: wp.array2d[float],  # type: ignore[valid-type]
+    actions: wp.array2d[float],
     s: Settings,
-    ctrl: wp.array2d[float],  # type: ignore[valid-type]
-    out: wp.array2d[float],  # type: ignore[valid-type]
+    ctrl: wp.array2d[float],
+    out: wp.array2d[float],
 ) -> None:
     """Clip each action to [-1, 1] and scale it into wheel speed targets (the CPU kernel's)."""
     w = wp.tid()
@@ -135,11 +135,11 @@ def apply_command(
 
 @wp.kernel
 def flag_collisions(
-    nacon: wp.array[int],  # type: ignore[valid-type]
-    contact_geom: wp.array[wp.vec2i],  # type: ignore[valid-type]
-    contact_world: wp.array[int],  # type: ignore[valid-type]
-    is_obstacle: wp.array[int],  # type: ignore[valid-type]
-    collision: wp.array[int],  # type: ignore[valid-type]
+    nacon: wp.array[int],
+    contact_geom: wp.array[wp.vec2i],
+    contact_world: wp.array[int],
+    is_obstacle: wp.array[int],
+    collision: wp.array[int],
 ) -> None:
     """Mark the worlds with a contact that involves a wall or obstacle geom."""
     c = wp.tid()
@@ -157,12 +157,12 @@ def flag_collisions(
 
 @wp.kernel
 def world_rays(
-    site_xpos: wp.array2d[wp.vec3],  # type: ignore[valid-type]
-    site_xmat: wp.array2d[wp.mat33],  # type: ignore[valid-type]
+    site_xpos: wp.array2d[wp.vec3],
+    site_xmat: wp.array2d[wp.mat33],
     site: int,
-    local_dirs: wp.array[wp.vec3],  # type: ignore[valid-type]
-    pnt: wp.array2d[wp.vec3],  # type: ignore[valid-type]
-    vec: wp.array2d[wp.vec3],  # type: ignore[valid-type]
+    local_dirs: wp.array[wp.vec3],
+    pnt: wp.array2d[wp.vec3],
+    vec: wp.array2d[wp.vec3],
 ) -> None:
     """Each ray's origin (the laser site) and direction in the world frame."""
     w, r = wp.tid()
@@ -172,13 +172,13 @@ def world_rays(
 
 @wp.kernel
 def laser_readings(
-    dist: wp.array2d[float],  # type: ignore[valid-type]
+    dist: wp.array2d[float],
     s: Settings,
-    seeds: wp.array[int],  # type: ignore[valid-type]
-    state: wp.array2d[int],  # type: ignore[valid-type]
-    active: wp.array[int],  # type: ignore[valid-type]
-    laser: wp.array2d[float],  # type: ignore[valid-type]
-    nearest: wp.array[float],  # type: ignore[valid-type]
+    seeds: wp.array[int],
+    state: wp.array2d[int],
+    active: wp.array[int],
+    laser: wp.array2d[float],
+    nearest: wp.array[float],
 ) -> None:
     """No hit reads ``range_max``; noise on hits; ``nearest`` is each world's lowest reading."""
     w, r = wp.tid()
@@ -282,21 +282,21 @@ def _reward(w: int, nearest: float, collided: bool, s: Settings, vel: Any, out: 
 
 @wp.kernel
 def sense(
-    sensordata: wp.array2d[float],  # type: ignore[valid-type]
-    qpos: wp.array2d[float],  # type: ignore[valid-type]
-    qvel: wp.array2d[float],  # type: ignore[valid-type]
-    time: wp.array[float],  # type: ignore[valid-type]
+    sensordata: wp.array2d[float],
+    qpos: wp.array2d[float],
+    qvel: wp.array2d[float],
+    time: wp.array[float],
     s: Settings,
-    collision: wp.array[int],  # type: ignore[valid-type]
-    nearest: wp.array[float],  # type: ignore[valid-type]
-    seeds: wp.array[int],  # type: ignore[valid-type]
-    active: wp.array[int],  # type: ignore[valid-type]
-    resetting: wp.array[int],  # type: ignore[valid-type]
-    state: wp.array2d[int],  # type: ignore[valid-type]
-    odom: wp.array2d[float],  # type: ignore[valid-type]
-    prox: wp.array2d[float],  # type: ignore[valid-type]
-    vel: wp.array2d[float],  # type: ignore[valid-type]
-    out: wp.array2d[float],  # type: ignore[valid-type]
+    collision: wp.array[int],
+    nearest: wp.array[float],
+    seeds: wp.array[int],
+    active: wp.array[int],
+    resetting: wp.array[int],
+    state: wp.array2d[int],
+    odom: wp.array2d[float],
+    prox: wp.array2d[float],
+    vel: wp.array2d[float],
+    out: wp.array2d[float],
 ) -> None:
     """Readings, ``info`` numbers, reward, odometry and episode flags of every world.
 
@@ -350,12 +350,12 @@ def sense(
 
 @wp.kernel
 def place_mocaps(
-    resetting: wp.array[int],  # type: ignore[valid-type]
-    rows: wp.array[int],  # type: ignore[valid-type]
-    table_pos: wp.array2d[wp.vec3],  # type: ignore[valid-type]
-    table_quat: wp.array2d[wp.quat],  # type: ignore[valid-type]
-    mocap_pos: wp.array2d[wp.vec3],  # type: ignore[valid-type]
-    mocap_quat: wp.array2d[wp.quat],  # type: ignore[valid-type]
+    resetting: wp.array[int],
+    rows: wp.array[int],
+    table_pos: wp.array2d[wp.vec3],
+    table_quat: wp.array2d[wp.quat],
+    mocap_pos: wp.array2d[wp.vec3],
+    mocap_quat: wp.array2d[wp.quat],
 ) -> None:
     """Obstacle poses (and parked slots) of each resetting world's layout row."""
     w, k = wp.tid()
@@ -368,14 +368,14 @@ def place_mocaps(
 
 @wp.kernel
 def place_geoms(
-    resetting: wp.array[int],  # type: ignore[valid-type]
-    rows: wp.array[int],  # type: ignore[valid-type]
-    slot_geoms: wp.array[int],  # type: ignore[valid-type]
-    table_size: wp.array2d[wp.vec3],  # type: ignore[valid-type]
-    table_rbound: wp.array2d[float],  # type: ignore[valid-type]
-    geom_size: wp.array2d[wp.vec3],  # type: ignore[valid-type]
-    geom_rbound: wp.array2d[float],  # type: ignore[valid-type]
-    geom_aabb: wp.array3d[wp.vec3],  # type: ignore[valid-type]
+    resetting: wp.array[int],
+    rows: wp.array[int],
+    slot_geoms: wp.array[int],
+    table_size: wp.array2d[wp.vec3],
+    table_rbound: wp.array2d[float],
+    geom_size: wp.array2d[wp.vec3],
+    geom_rbound: wp.array2d[float],
+    geom_aabb: wp.array3d[wp.vec3],
 ) -> None:
     """Obstacle sizes, bounding spheres and boxes of each resetting world's layout row.
 
@@ -398,11 +398,11 @@ def place_geoms(
 
 @wp.kernel
 def place_robots(
-    resetting: wp.array[int],  # type: ignore[valid-type]
-    rows: wp.array[int],  # type: ignore[valid-type]
-    table_root: wp.array2d[float],  # type: ignore[valid-type]
+    resetting: wp.array[int],
+    rows: wp.array[int],
+    table_root: wp.array2d[float],
     s: Settings,
-    qpos: wp.array2d[float],  # type: ignore[valid-type]
+    qpos: wp.array2d[float],
 ) -> None:
     """Each resetting world's robot at its layout's start pose (the free joint's 7 numbers)."""
     w = wp.tid()
@@ -414,11 +414,11 @@ def place_robots(
 
 @wp.kernel
 def flatten_observations(
-    laser: wp.array2d[float],  # type: ignore[valid-type]
+    laser: wp.array2d[float],
     nray: int,
-    prox: wp.array2d[float],  # type: ignore[valid-type]
-    vel: wp.array2d[float],  # type: ignore[valid-type]
-    flat: wp.array2d[float],  # type: ignore[valid-type]
+    prox: wp.array2d[float],
+    vel: wp.array2d[float],
+    flat: wp.array2d[float],
 ) -> None:
     """``obs_mode="flat"``: laser, proximity, velocity side by side, as the CPU env's layout."""
     w = wp.tid()
@@ -431,8 +431,8 @@ def flatten_observations(
 
 @wp.kernel
 def gather_rewards(
-    out: wp.array2d[float],  # type: ignore[valid-type]
-    rewards: wp.array[float],  # type: ignore[valid-type]
+    out: wp.array2d[float],
+    rewards: wp.array[float],
 ) -> None:
     """Each world's reward, from its result row."""
     w = wp.tid()

@@ -14,7 +14,7 @@ seeded reset (:class:`~bubblerob_env.mjwarp.vector.WarpVectorEnv`).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import warp as wp
@@ -36,7 +36,7 @@ def slot_geoms(env: BubbleRobEnv) -> NDArray[np.int32]:
 class LayoutTable:
     """The layouts of ``seeds`` on ``device``, made by resetting ``env`` (a CPU env) with each."""
 
-    def __init__(self, env: BubbleRobEnv, seeds: Sequence[int], device: wp.context.Device) -> None:
+    def __init__(self, env: BubbleRobEnv, seeds: Sequence[int], device: wp.Device) -> None:
         geoms = slot_geoms(env)
         root = int(env.model.joint(names.ROOT_JOINT).qposadr[0])
         n, nmocap = len(seeds), env.model.nmocap
@@ -53,11 +53,11 @@ class LayoutTable:
         self.seeds = np.asarray(seeds, dtype=np.int64)
         self.start_poses = start
         """Each row's free-joint pose (x, y, z, quaternion w, x, y, z), float32."""
-        self.pos = wp.array(pos, dtype=wp.vec3, device=device)
-        self.quat = wp.array(quat, dtype=wp.quat, device=device)
-        self.size = wp.array(size, dtype=wp.vec3, device=device)
-        self.rbound = wp.array(rbound, dtype=float, device=device)
-        self.root = wp.array(start, dtype=float, device=device)
+        self.pos: wp.array[Any] = wp.array(pos, dtype=wp.vec3, device=device)
+        self.quat: wp.array[Any] = wp.array(quat, dtype=wp.quat, device=device)
+        self.size: wp.array[Any] = wp.array(size, dtype=wp.vec3, device=device)
+        self.rbound: wp.array[Any] = wp.array(rbound, dtype=float, device=device)
+        self.root: wp.array[Any] = wp.array(start, dtype=float, device=device)
 
     def __len__(self) -> int:
         return int(self.seeds.size)

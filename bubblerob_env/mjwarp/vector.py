@@ -24,7 +24,6 @@ truncations are ``warp.array`` s on the device (``info`` stays numpy); ``torch.f
 from __future__ import annotations
 
 from collections.abc import Sequence
-from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -35,7 +34,7 @@ from numpy.typing import NDArray
 from bubblerob_env.checks import check_choice, check_int_range
 from bubblerob_env.env import BubbleRobEnv
 from bubblerob_env.infos import batched_step_info, robot_info, robot_step_info
-from bubblerob_env.mjwarp.device import DeviceWorlds
+from bubblerob_env.mjwarp.device import DeviceWorlds, HostCopy
 from bubblerob_env.mjwarp.layouts import LayoutTable
 from bubblerob_env.vector import _seeds, add_finals, collate_infos
 
@@ -200,7 +199,7 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
         self.arena_seeds[resetting] = self._bank.seeds[picked]
         self.worlds.reset(resetting, self._bank, rows)
 
-    def _observations(self, host: SimpleNamespace, host_only: bool = False) -> Any:
+    def _observations(self, host: HostCopy, host_only: bool = False) -> Any:
         """Numpy observations (copies), or the device's when ``outputs="warp"``."""
         if self.outputs == "warp" and not host_only:
             return self.worlds.device_observations(self._template.obs_mode)
@@ -214,20 +213,16 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
         return {key: value.copy() for key, value in parts.items()}
 
     def _infos(
-        self, host: SimpleNamespace, resets: list[int], with_success: bool = True
+        self, host: HostCopy, resets: list[int], with_success: bool = True
     ) -> dict[str, Any]:
         """The CPU batch's ``info``: Gymnasium's dict of arrays, from the device's numbers."""
         diverged = {i: _DIVERGED_REASON for i in np.flatnonzero(host.diverged).tolist()}
-        core = SimpleNamespace(out=host.out, proximity=host.proximity)
-        odometry = host.odometry
-        reset_infos = {
-            i: robot_info(core, i, self._trigger, 0, odometry)
-            for i in resets  # type: ignore[arg-type]
-        }
+        core, odometry = host, host.odometry
+        reset_infos = {i: robot_info(core, i, self._trigger, 0, odometry) for i in resets}
         if not with_success:  # reset(): every chosen world's reset info, no is_success
             return _collate_resets(core, self._trigger, odometry, resets, self.num_envs)
         return batched_step_info(
-            core,  # type: ignore[arg-type]
+            core,
             self._trigger,
             host.collided,
             host.clipped_actions,
@@ -236,11 +231,11 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
             odometry,
         )
 
-    def _step_info(self, host: SimpleNamespace, i: int) -> dict[str, Any]:
-        core = SimpleNamespace(out=host.out, proximity=host.proximity)
+    def _step_info(self, host: HostCopy, i: int) -> dict[str, Any]:
+        core = host
         diverged = {i: _DIVERGED_REASON} if host.diverged[i] else {}
         return robot_step_info(
-            core,  # type: ignore[arg-type]
+            core,
             i,
             self._trigger,
             bool(host.collided[i]),
@@ -273,14 +268,13 @@ def _row(obs: Any, i: int) -> Any:
 
 
 def _collate_resets(
-    core: SimpleNamespace,
+    core: HostCopy,
     trigger: float,
     odometry: NDArray[np.float64],
     resets: list[int],
     n: int,
 ) -> dict[str, Any]:
     infos = [
-        robot_info(core, i, trigger, 0, odometry) if i in set(resets) else {}  # type: ignore[arg-type]
-        for i in range(n)
+        robot_info(core, i, trigger, 0, odometry) if i in set(resets) else {} for i in range(n)
     ]
     return collate_infos(infos)

@@ -44,7 +44,7 @@ def test_spaces_and_info_keys_are_the_cpu_batchs(autoreset_mode: str) -> None:
     assert warp_env.observation_space == cpu_env.observation_space
     assert warp_env.action_space == cpu_env.action_space
     assert warp_env.metadata["autoreset_mode"] == cpu_env.metadata["autoreset_mode"]
-    (warp_obs, warp_info), (cpu_obs, cpu_info) = warp_env.reset(seed=3), cpu_env.reset(seed=3)
+    (warp_obs, warp_info), (_, cpu_info) = warp_env.reset(seed=3), cpu_env.reset(seed=3)
     assert _keys(warp_info) == _keys(cpu_info)
     assert warp_env.observation_space.contains(warp_obs)
     actions = np.full((N, 2), 0.3, dtype=np.float32)
