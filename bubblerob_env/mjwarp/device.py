@@ -18,7 +18,7 @@ import mujoco
 import mujoco_warp as mjw
 import numpy as np
 import warp as wp
-from mujoco_warp._src.types import vec6
+from mujoco_warp._src.types import OverflowType, vec6
 from numpy.typing import NDArray
 
 from bubblerob_env import names
@@ -34,6 +34,15 @@ CONTACTS_PER_WORLD = 16
 CONSTRAINTS_PER_WORLD = 64
 """Constraint rows allocated per world (the CPU env used at most 21)."""
 _BATCHED_FIELDS = ("geom_size", "geom_rbound", "geom_aabb")
+# Overflows that drop contacts or constraints (the CPU batch's full MjData arena); a solver that
+# reached its iteration limit still gives a state, as CPU MuJoCo's does.
+_FATAL_OVERFLOWS = int(
+    OverflowType.NEFC
+    | OverflowType.NJMAX_NNZ
+    | OverflowType.BROADPHASE
+    | OverflowType.NARROWPHASE
+    | OverflowType.CCD
+)
 
 
 @dataclass(frozen=True)
@@ -87,9 +96,17 @@ class DeviceWorlds:
     """``n`` worlds of ``env``'s model on ``device``, and their readings and episode state."""
 
     def __init__(
-        self, env: BubbleRobEnv, n: int, device: str | None, max_episode_steps: int | None
+        self,
+        env: BubbleRobEnv,
+        n: int,
+        device: str | None,
+        max_episode_steps: int | None,
+        cuda_graphs: bool = True,
     ) -> None:
         self.device = wp.get_device(device)
+        self.cuda_graphs = cuda_graphs
+        self._graphs: dict[str, Any] = {}
+        self._seen: set[str] = set()
         self.n = n
         self.substeps = env.physics_substeps
         self.settings = _settings(env, max_episode_steps)
@@ -167,19 +184,38 @@ class DeviceWorlds:
 
     def physics(self) -> None:
         """Wheel commands, then the substeps with a collision check after each."""
+        self._run("physics", self._physics)
+
+    def _physics(self) -> None:
         m, d, n = self.model, self.data, self.n
+        wp.launch(K.apply_command, n, inputs=[self.actions, self.settings, d.ctrl, self.out])
+        self.collision.zero_()
+        for _ in range(self.substeps):
+            mjw.step2(m, d)
+            mjw.step1(m, d)
+            wp.launch(
+                K.flag_collisions,
+                d.naconmax,
+                inputs=[d.nacon, d.contact.geom, d.contact.worldid, self.is_obstacle],
+                outputs=[self.collision],
+            )
+
+    def _run(self, name: str, body: Any) -> None:
+        """``body()`` on the device; on a GPU, as a CUDA graph captured on the second call.
+
+        The first call runs it plainly (Warp loads kernels then, which a capture cannot).
+        """
         with wp.ScopedDevice(self.device):
-            wp.launch(K.apply_command, n, inputs=[self.actions, self.settings, d.ctrl, self.out])
-            self.collision.zero_()
-            for _ in range(self.substeps):
-                mjw.step2(m, d)
-                mjw.step1(m, d)
-                wp.launch(
-                    K.flag_collisions,
-                    d.naconmax,
-                    inputs=[d.nacon, d.contact.geom, d.contact.worldid, self.is_obstacle],
-                    outputs=[self.collision],
-                )
+            graph = self._graphs.get(name)
+            if graph is not None:
+                wp.capture_launch(graph)
+                return
+            body()
+            if self.cuda_graphs and self.device.is_cuda and name in self._seen:
+                with wp.ScopedCapture(device=self.device) as capture:
+                    body()
+                self._graphs[name] = capture.graph
+            self._seen.add(name)
 
     def reset(self, chosen: NDArray[np.bool_], table: LayoutTable, rows: NDArray[np.int32]) -> None:
         """Reset the chosen worlds to ``table``'s ``rows[w]`` (at rest, time 0)."""
@@ -213,59 +249,71 @@ class DeviceWorlds:
 
     def sense(self, active: NDArray[np.bool_] | None, resetting: NDArray[np.bool_]) -> None:
         """The laser, readings, reward, odometry and flags of the ``active`` worlds (None: all)."""
-        m, d, n, s = self.model, self.data, self.n, self.settings
         with wp.ScopedDevice(self.device):
             self.resetting.assign(resetting.astype(np.int32))
-            worlds = self.all_worlds
-            if active is not None:
-                self.active.assign(active.astype(np.int32))
-                worlds = self.active
-            if self.nray:
-                wp.launch(
-                    K.world_rays,
-                    (n, self.nray),
-                    inputs=[d.site_xpos, d.site_xmat, s.laser_site, self.local_dirs],
-                    outputs=[self.pnt, self.vec],
-                )
-                mjw.rays(
-                    m,
-                    d,
-                    self.pnt,
-                    self.vec,
-                    self.geomgroup,
-                    True,
-                    self.bodyexclude,
-                    self.dist,
-                    self.geomid,
-                    self.normal,
-                )
-                self.nearest.fill_(math.inf)
-                wp.launch(
-                    K.laser_readings,
-                    (n, self.nray),
-                    inputs=[self.dist, s, self.seeds, self.state, worlds],
-                    outputs=[self.laser, self.nearest],
-                )
+            if active is None:
+                self._run("sense", lambda: self._sense(self.all_worlds))
+                return
+            self.active.assign(active.astype(np.int32))
+            self._sense(self.active)
+
+    def _sense(self, worlds: wp.array[Any]) -> None:
+        m, d, n, s = self.model, self.data, self.n, self.settings
+        if self.nray:
             wp.launch(
-                K.sense,
-                n,
-                inputs=[
-                    d.sensordata,
-                    d.qpos,
-                    d.qvel,
-                    d.time,
-                    s,
-                    self.collision,
-                    self.nearest,
-                    self.seeds,
-                    worlds,
-                    self.resetting,
-                ],
-                outputs=[self.state, self.odometry, self.proximity, self.velocity, self.out],
+                K.world_rays,
+                (n, self.nray),
+                inputs=[d.site_xpos, d.site_xmat, s.laser_site, self.local_dirs],
+                outputs=[self.pnt, self.vec],
             )
+            mjw.rays(
+                m,
+                d,
+                self.pnt,
+                self.vec,
+                self.geomgroup,
+                True,
+                self.bodyexclude,
+                self.dist,
+                self.geomid,
+                self.normal,
+            )
+            self.nearest.fill_(math.inf)
+            wp.launch(
+                K.laser_readings,
+                (n, self.nray),
+                inputs=[self.dist, s, self.seeds, self.state, worlds],
+                outputs=[self.laser, self.nearest],
+            )
+        wp.launch(
+            K.sense,
+            n,
+            inputs=[
+                d.sensordata,
+                d.qpos,
+                d.qvel,
+                d.time,
+                s,
+                self.collision,
+                self.nearest,
+                self.seeds,
+                worlds,
+                self.resetting,
+            ],
+            outputs=[self.state, self.odometry, self.proximity, self.velocity, self.out],
+        )
 
     def fetch(self, rewards: NDArray[np.float64] | None = None) -> HostCopy:
         """The host's copy of the step (``rewards``: keep these, a SameStep reset's pass)."""
+        overflow = self.data.overflow.numpy() & _FATAL_OVERFLOWS
+        if overflow.any():
+            world = int(np.flatnonzero(overflow)[0])
+            kind = OverflowType(int(overflow[world]))
+            raise RuntimeError(
+                f"world {world}: MuJoCo Warp's buffers overflowed ({kind!r}; contacts or "
+                "constraints were dropped); raise "
+                "bubblerob_env.mjwarp.device.CONTACTS_PER_WORLD or CONSTRAINTS_PER_WORLD"
+            )
         out = self.out.numpy().astype(np.float64)
         state = self.state.numpy()
         return HostCopy(

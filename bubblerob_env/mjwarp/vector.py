@@ -31,7 +31,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numpy.typing import NDArray
 
-from bubblerob_env.checks import check_choice, check_int_range
+from bubblerob_env.checks import check_bool, check_choice, check_int_range
 from bubblerob_env.env import BubbleRobEnv
 from bubblerob_env.infos import batched_step_info, robot_info, robot_step_info
 from bubblerob_env.mjwarp.device import DeviceWorlds, HostCopy
@@ -55,6 +55,8 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
         autoreset_mode: ``"NextStep"`` (Gymnasium's default) or ``"SameStep"``.
         layout_bank: Arenas the autoresets draw from (made at each seeded reset).
         outputs: ``"numpy"`` or ``"warp"`` (see the module docstring).
+        cuda_graphs: On a GPU, replay each step's launches as CUDA graphs (captured on the
+            second step). Not yet run on a GPU by this project: ``False`` launches plainly.
         **kwargs: The arguments of :class:`~bubblerob_env.env.BubbleRobEnv`; no camera and no
             ``render_mode`` (rendering stays with the CPU backend).
     """
@@ -68,11 +70,13 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
         autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
         layout_bank: int = 1024,
         outputs: str = "numpy",
+        cuda_graphs: bool = True,
         **kwargs: Any,
     ) -> None:
         check_int_range("num_envs", num_envs, 1)
         check_int_range("layout_bank", layout_bank, 1)
         check_choice("outputs", outputs, OUTPUTS)
+        check_bool("cuda_graphs", cuda_graphs)
         if max_episode_steps is not None:
             check_int_range("max_episode_steps", max_episode_steps, 1)
         modes = [AutoresetMode.NEXT_STEP.value, AutoresetMode.SAME_STEP.value]
@@ -98,7 +102,7 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
         self.single_action_space = first.action_space
         self.observation_space = batch_space(first.observation_space, num_envs)
         self.action_space = batch_space(first.action_space, num_envs)
-        self.worlds = DeviceWorlds(first, num_envs, device, max_episode_steps)
+        self.worlds = DeviceWorlds(first, num_envs, device, max_episode_steps, cuda_graphs)
         """The device state: MuJoCo Warp's model and data, the readings, the kernels' settings."""
         self.device = self.worlds.device
         self.arena_seeds = np.zeros(num_envs, dtype=np.int64)

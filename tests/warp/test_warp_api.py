@@ -200,3 +200,15 @@ def test_readme_example_runs() -> None:
     )
     assert result.returncode == 0, result.stderr[-2000:]
     assert "warp laser batch (16, 360) on cpu" in result.stdout
+
+
+def test_dropped_contacts_are_an_error_not_a_silent_step(monkeypatch: pytest.MonkeyPatch) -> None:
+    from bubblerob_env.mjwarp import device
+
+    monkeypatch.setattr(device, "CONTACTS_PER_WORLD", 1)  # a robot at rest has 5 contacts
+    env = _make("warp")
+    with pytest.raises(RuntimeError, match="world 0: MuJoCo Warp's buffers overflowed"):
+        env.reset(seed=0)
+        env.step(np.zeros((N, 2), dtype=np.float32))
+    with pytest.raises(ValueError, match="cuda_graphs must be True or False, got 'yes'"):
+        make_vector_env(2, backend="warp", device="cpu", cuda_graphs="yes")
