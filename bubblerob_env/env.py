@@ -148,6 +148,10 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
     See ``__init__`` for each one's meaning.
 
     ## Version History
+    - v0 (2026-11-26, issue #29): the vector entry point (``gym.make_vec(...,
+      vectorization_mode="vector_entry_point")``) takes ``backend`` (``"cpu"``, the default:
+      unchanged, bit for bit; ``"warp"``: MuJoCo Warp, :mod:`bubblerob_env.mjwarp`) and
+      ``device``. The single env is unchanged.
     - v0 (2026-11-25, issue #26): new kwarg ``robot`` (``"bubblerob"``, the default, or
       ``"pioneer_p3dx"``: ``PioneerP3DX-v0``); the robot-dependent kwargs default to ``None``,
       the robot's value (:mod:`bubblerob_env.robots`). BubbleRob's episodes and bags are bit for
@@ -561,24 +565,7 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
     ) -> tuple[Observation, dict[str, Any]]:
         """Draw a new arena layout and start pose (see Starting State)."""
         self._check_open("reset")
-        super().reset(seed=seed)
-        self.layout = sample_layout(
-            self.np_random,
-            self.arena_size,
-            self.num_obstacles,
-            self.obstacle_size,
-            self.start_clearance,
-            self.start_pose,
-            self.robot.radius,
-        )
-        if self.obstacle_colours:
-            self.layout = colour_obstacles(self.np_random, self.layout)
-        mujoco.mj_resetData(self.model, self.data)
-        self._slots.apply(self.model, self.data, self.layout.obstacles)
-        x, y, yaw = self.layout.start_pose
-        adr = self._root_qpos
-        self.data.qpos[adr : adr + 3] = (x, y, self.model.body_pos[self._base][2])
-        self.data.qpos[adr + 3 : adr + 7] = (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
+        self._place_layout(seed)
         mujoco.mj_forward(self.model, self.data)
         if self.start_pose is not None and self._in_collision():
             raise ValueError(
@@ -601,6 +588,30 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
         if self.render_mode == "human":
             self.render()
         return obs, info
+
+    def _place_layout(self, seed: int | None) -> None:
+        """Seed the generator, draw the layout, write it and the start pose into MuJoCo.
+
+        The part of ``reset`` that MuJoCo Warp's layout tables share (before ``mj_forward``).
+        """
+        super().reset(seed=seed)
+        self.layout = sample_layout(
+            self.np_random,
+            self.arena_size,
+            self.num_obstacles,
+            self.obstacle_size,
+            self.start_clearance,
+            self.start_pose,
+            self.robot.radius,
+        )
+        if self.obstacle_colours:
+            self.layout = colour_obstacles(self.np_random, self.layout)
+        mujoco.mj_resetData(self.model, self.data)
+        self._slots.apply(self.model, self.data, self.layout.obstacles)
+        x, y, yaw = self.layout.start_pose
+        adr = self._root_qpos
+        self.data.qpos[adr : adr + 3] = (x, y, self.model.body_pos[self._base][2])
+        self.data.qpos[adr + 3 : adr + 7] = (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
 
     def step(
         self, action: NDArray[np.float32]

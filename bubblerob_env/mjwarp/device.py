@@ -303,8 +303,12 @@ class DeviceWorlds:
             outputs=[self.state, self.odometry, self.proximity, self.velocity, self.out],
         )
 
-    def fetch(self, rewards: NDArray[np.float64] | None = None) -> HostCopy:
-        """The host's copy of the step (``rewards``: keep these, a SameStep reset's pass)."""
+    def fetch(self, rewards: NDArray[np.float64] | None = None, laser: bool = True) -> HostCopy:
+        """The host's copy of the step (``rewards``: keep these, a SameStep reset's pass).
+
+        ``laser=False`` leaves the scans on the device (an empty host array): at 64k worlds they
+        are 94 MB a step, which a learner reading them on the device does not need.
+        """
         overflow = self.data.overflow.numpy() & _FATAL_OVERFLOWS
         if overflow.any():
             world = int(np.flatnonzero(overflow)[0])
@@ -318,7 +322,9 @@ class DeviceWorlds:
         state = self.state.numpy()
         return HostCopy(
             out=out,
-            laser=self.laser.numpy()[:, : self.nray].copy(),
+            laser=self.laser.numpy()[:, : self.nray].copy()
+            if laser
+            else np.zeros((0, 0), np.float32),
             proximity=self.proximity.numpy().copy(),
             velocity=self.velocity.numpy().copy(),
             odometry=self.odometry.numpy()[:, :3].astype(np.float64),

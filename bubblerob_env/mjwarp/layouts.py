@@ -46,7 +46,10 @@ class LayoutTable:
         rbound = np.zeros((n, geoms.size), dtype=np.float32)
         start = np.zeros((n, 7), dtype=np.float32)
         for k, seed in enumerate(seeds):
-            env.reset(seed=int(seed))
+            if env.start_pose is not None:  # the full reset checks it is free
+                env.reset(seed=int(seed))
+            else:  # the same layout and state, without the observation (5x faster)
+                env._place_layout(int(seed))
             pos[k], quat[k] = env.data.mocap_pos, env.data.mocap_quat
             size[k], rbound[k] = env.model.geom_size[geoms], env.model.geom_rbound[geoms]
             start[k] = env.data.qpos[root : root + 7]

@@ -108,6 +108,8 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
         self.arena_seeds = np.zeros(num_envs, dtype=np.int64)
         """The seed of each world's current arena (``gym.make``'s env reset with it has it)."""
         self._trigger = first.proximity_spec.trigger_distance
+        # Scans come to the host for numpy outputs, and for SameStep's final observations.
+        self._host_laser = outputs == "numpy" or self.autoreset_mode == AutoresetMode.SAME_STEP
         self._autoreset = np.zeros(num_envs, dtype=bool)
         self._bank: LayoutTable | None = None
         self._bank_rng = np.random.default_rng()
@@ -165,7 +167,7 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
         if resetting.any():  # NextStep: the worlds whose episode ended last step
             self._autoreset_worlds(resetting)
         self.worlds.sense(active=None, resetting=resetting)
-        host = self.worlds.fetch()
+        host = self.worlds.fetch(laser=self._host_laser)
         terminated, truncated = host.terminated.copy(), host.truncated.copy()
         terminated[resetting] = truncated[resetting] = False
         done = terminated | truncated

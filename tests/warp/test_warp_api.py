@@ -158,31 +158,38 @@ def test_twist_actions_and_time_limits_pass_through() -> None:
     assert truncated.all() and (info["body_twist"][:, 0] > 0.1).all()
 
 
-def test_speed_benchmark_prints_its_table_naming_the_device() -> None:
-    """Smoke only: bench/warp_speed.py measures speed; a test never does."""
+@pytest.mark.parametrize(
+    ("command", "rows"),
+    [
+        (
+            ["warp_speed.py", "--sizes", "4", "--steps", "2"],
+            ["device: cpu", "anchor: CPU native batch, N=64", "| 4 |", "MuJoCo Warp floor"],
+        ),
+        (
+            ["warp_equivalence.py", "--quick"],
+            ["device: cpu", "| laser vs mj_multiRay", "wall 1/1, cylinder 1/1, box 1/1"],
+        ),
+    ],
+)
+def test_benchmarks_print_their_tables_naming_the_device(
+    command: list[str], rows: list[str]
+) -> None:
+    """Smoke only: the bench scripts measure; a test never times anything."""
     import subprocess
     import sys
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[2]
+    script, *options = command
     result = subprocess.run(
-        [
-            sys.executable,
-            str(root / "bench" / "warp_speed.py"),
-            "--device",
-            "cpu",
-            "--sizes",
-            "4",
-            "--steps",
-            "2",
-        ],
+        [sys.executable, str(root / "bench" / script), "--device", "cpu", *options],
         capture_output=True,
         text=True,
         timeout=600,
         cwd=root,
     )
     assert result.returncode == 0, result.stderr[-2000:]
-    for row in ("device: cpu", "anchor: CPU native batch, N=64", "| 4 |", "MuJoCo Warp floor"):
+    for row in rows:
         assert row in result.stdout
 
 
