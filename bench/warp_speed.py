@@ -87,7 +87,7 @@ def main() -> None:
     rows = {n: _warp_rows(n, args.steps, args.device) for n in sizes}
     print(f"# backend='warp', {datetime.datetime.now(datetime.UTC):%Y-%m-%d %H:%M} UTC")
     print(
-        f"device: {device.alias} ({device.name}); host: {platform.processor() or 'cpu'}, "
+        f"device: {device.alias} ({device.name}); host: {platform.machine()}, "
         f"{os.cpu_count()} cores, load {os.getloadavg()[0]:.1f}"
     )
     print(f"anchor: CPU native batch, N=64: {cpu:,.0f} robot-steps/s\n")
