@@ -6,6 +6,8 @@ run with the same seed is the reference for determinism.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -219,3 +221,19 @@ def test_dropped_contacts_are_an_error_not_a_silent_step(monkeypatch: pytest.Mon
         env.step(np.zeros((N, 2), dtype=np.float32))
     with pytest.raises(ValueError, match="cuda_graphs must be True or False, got 'yes'"):
         make_vector_env(2, backend="warp", device="cpu", cuda_graphs="yes")
+
+
+def test_readme_figure_command_draws_both_backends(tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[2]
+    assert "`python docs/make_warp_figure.py`" in (root / "README.md").read_text()
+    out = tmp_path / "warp.png"
+    result = subprocess.run(
+        [sys.executable, str(root / "docs" / "make_warp_figure.py"), "--out", str(out),
+         "--steps", "15"],
+        capture_output=True, text=True, timeout=600, cwd=root,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
