@@ -37,7 +37,7 @@ TF2_INPUTS := pyproject.toml bubblerob_env/ros/live/ros2_msgs.py bubblerob_env/r
 TORCH_REPORT := $(VENV)/.torch-install-report.json
 
 .PHONY: help demo test demo-setup test-setup debs-demo debs-test venv venv-demo kernel venv-all torch \
-	warp-kernels \
+	warp-kernels warp-kernels-ready \
 	venv-ros2 tf2-msgs test-clients
 
 help:
@@ -60,7 +60,7 @@ test: test-setup
 	python -m pytest $(PYTEST_ARGS)
 
 demo-setup: debs-demo venv venv-demo kernel
-test-setup: demo-setup debs-test torch venv-all warp-kernels venv-ros2 tf2-msgs
+test-setup: demo-setup debs-test torch venv-all warp-kernels venv-ros2 tf2-msgs warp-kernels-ready
 
 # The client libraries' tests skip in make test (not installed there): here they run, in their
 # own venv with CPU torch, the project and those libraries.
@@ -141,16 +141,34 @@ venv-all: venv torch
 	fi
 
 # MuJoCo Warp (in .[all]) compiles its kernels on first use, about 90 s on two cores, and keeps them
-# in Warp's kernel cache: compile them here, once, for the CPU device the tests use.
+# in Warp's kernel cache: compile them here, once, for the CPU device the tests use. The compile
+# runs in the background while the ROS 2 venv is set up; warp-kernels-ready waits for it (its log
+# says "ready" when it succeeded) before the tests start.
 WARP_INPUTS := pyproject.toml bubblerob_env/mjwarp/kernels.py
+WARP_LOG := $(VENV)/warp-kernels.log
+WARP_PID := $(VENV)/warp-kernels.pid
 warp-kernels: venv-all
 	@if sha256sum --check --status $(VENV)/.stamp-warp-kernels 2>/dev/null \
 	  && [ -d "$${HOME}/.cache/warp" ]; then
 	  echo "setup: MuJoCo Warp's kernels are compiled (Warp's kernel cache): skipped"
 	else
-	  echo "setup: compiling MuJoCo Warp's kernels for the CPU device (once; Warp's kernel cache)"
-	  $(VENV)/bin/python -m bubblerob_env.mjwarp cpu
+	  echo "setup: compiling MuJoCo Warp's kernels for the CPU device in the background (once;" \
+	    "Warp's kernel cache; log: $(WARP_LOG))"
+	  nohup $(VENV)/bin/python -m bubblerob_env.mjwarp cpu > $(WARP_LOG) 2>&1 &
+	  echo $$! > $(WARP_PID)
+	fi
+
+warp-kernels-ready: warp-kernels
+	@if [ ! -f $(WARP_PID) ]; then exit 0; fi
+	while kill -0 "$$(cat $(WARP_PID))" 2>/dev/null; do sleep 1; done
+	rm -f $(WARP_PID)
+	if grep -q "MuJoCo Warp kernels ready" $(WARP_LOG); then
+	  echo "setup: $$(grep "MuJoCo Warp kernels ready" $(WARP_LOG))"
 	  sha256sum $(WARP_INPUTS) > $(VENV)/.stamp-warp-kernels
+	else
+	  echo "setup: compiling MuJoCo Warp's kernels failed; $(WARP_LOG) says:" >&2
+	  tail -20 $(WARP_LOG) >&2
+	  exit 1
 	fi
 
 # Prints which torch is in the venv, which build, and where pip took it from (the report that

@@ -90,11 +90,11 @@ def main() -> None:
     parser.add_argument("--device", default=None, help="Warp device (default: Warp's)")
     parser.add_argument("--seeds", type=int, default=200, help="seeds per drive")
     parser.add_argument("--steps", type=int, default=200, help="steps per episode")
-    parser.add_argument("--quick", action="store_true", help="4 seeds, 30 steps (a smoke run)")
+    parser.add_argument("--quick", action="store_true", help="2 seeds, 20 steps (a smoke run)")
     args = parser.parse_args()
-    seeds, steps, per_kind = (4, 30, 1) if args.quick else (args.seeds, args.steps, 5)
+    seeds, steps, per_kind = (2, 20, 1) if args.quick else (args.seeds, args.steps, 5)
     device = wp.get_device(args.device)
-    laser = _laser_rows(args.device, 2, 20) if args.quick else _laser_rows(args.device, 8, 60)
+    laser = _laser_rows(args.device, 1, 10) if args.quick else _laser_rows(args.device, 8, 60)
     rows = [laser, _head_on_row(args.device, per_kind)]
     rows += [_outcome_row(args.device, drive, seeds, steps) for drive in DRIVES]
     now = datetime.datetime.now(datetime.UTC)

@@ -22,7 +22,6 @@ import platform
 import time
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 import warp as wp
 
@@ -70,7 +69,9 @@ def _cpu_batch(steps: int) -> float:
     env = BubbleRobVectorEnv(64)
     env.reset(seed=0)
     actions = np.random.default_rng(0).uniform(-1, 1, (64, 2)).astype(np.float32)
-    return _rate(lambda: env.step(actions), 64, steps * 10)
+    rate = _rate(lambda: env.step(actions), 64, steps * 10)
+    env.close()
+    return rate
 
 
 def main() -> None:
@@ -82,7 +83,6 @@ def main() -> None:
     args = parser.parse_args()
     sizes = [int(size) for size in args.sizes.split(",")]
     device = wp.get_device(args.device)
-    gym.logger.min_level = 40
     cpu = _cpu_batch(args.steps)
     rows = {n: _warp_rows(n, args.steps, args.device) for n in sizes}
     print(f"# backend='warp', {datetime.datetime.now(datetime.UTC):%Y-%m-%d %H:%M} UTC")

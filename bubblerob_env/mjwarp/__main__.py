@@ -12,12 +12,13 @@ import sys
 import time
 
 import numpy as np
+import warp as wp
 
 from bubblerob_env.mjwarp import WarpVectorEnv
 
 
 def main(devices: list[str]) -> None:
-    """Build two worlds per device and step them through a reset and an autoreset."""
+    """Two worlds per device through a reset and an autoreset; device outputs and actions."""
     for device in devices:
         started = time.perf_counter()
         env = WarpVectorEnv(2, device=device, max_episode_steps=2, layout_bank=2)
@@ -25,6 +26,10 @@ def main(devices: list[str]) -> None:
         for _ in range(3):
             env.step(np.zeros((2, 2), dtype=np.float32))
         env.close()
+        flat = WarpVectorEnv(2, device=device, layout_bank=2, outputs="warp", obs_mode="flat")
+        flat.reset(seed=0)
+        flat.step(wp.zeros((2, 2), dtype=float, device=flat.device))
+        flat.close()
         print(f"MuJoCo Warp kernels ready on {device} ({time.perf_counter() - started:.0f} s)")
 
 

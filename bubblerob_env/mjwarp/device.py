@@ -353,16 +353,22 @@ class DeviceWorlds:
             return {key: wp.clone(array) for key, array in parts.items()}
 
     def device_results(
-        self, terminated: NDArray[np.bool_], truncated: NDArray[np.bool_]
+        self,
+        rewards: NDArray[np.float64],
+        terminated: NDArray[np.bool_],
+        truncated: NDArray[np.bool_],
     ) -> tuple[wp.array[Any], wp.array[Any], wp.array[Any]]:
         """Rewards (float32), terminations and truncations (bool) as new device arrays.
 
-        The episode flags come from the host, where the step's autoresets were settled.
+        From the host, where the step's autoresets were settled (a SameStep reset has already
+        zeroed the device's reward of a world whose episode ended).
         """
         with wp.ScopedDevice(self.device):
-            rewards = wp.empty(self.n, dtype=float)
-            wp.launch(K.gather_rewards, self.n, inputs=[self.out], outputs=[rewards])
-            return rewards, wp.array(terminated, dtype=bool), wp.array(truncated, dtype=bool)
+            return (
+                wp.array(rewards.astype(np.float32), dtype=float),
+                wp.array(terminated, dtype=bool),
+                wp.array(truncated, dtype=bool),
+            )
 
 
 def _checked(actions: Any, n: int) -> NDArray[np.float32]:

@@ -23,7 +23,6 @@ __all__ = [
     "check_actions",
     "flag_collisions",
     "flatten_observations",
-    "gather_rewards",
     "laser_readings",
     "place_geoms",
     "place_mocaps",
@@ -427,13 +426,3 @@ def flatten_observations(
     flat[w, nray] = prox[w, 0]
     flat[w, nray + 1] = vel[w, 0]
     flat[w, nray + 2] = vel[w, 1]
-
-
-@wp.kernel
-def gather_rewards(
-    out: wp.array2d[float],
-    rewards: wp.array[float],
-) -> None:
-    """Each world's reward, from its result row."""
-    w = wp.tid()
-    rewards[w] = out[w, _REWARD]

@@ -193,7 +193,7 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
 
     def _outputs(self, obs: Any, rewards: Any, terminated: Any, truncated: Any) -> tuple[Any, ...]:
         if self.outputs == "warp":
-            return obs, *self.worlds.device_results(terminated, truncated)
+            return obs, *self.worlds.device_results(rewards, terminated, truncated)
         return obs, rewards, terminated, truncated
 
     def _autoreset_worlds(self, resetting: NDArray[np.bool_]) -> None:
