@@ -215,6 +215,20 @@ def test_the_env_alone(wheel, installed, tmp_path) -> None:
     )
     made = _run(prefix, "python", "-c", code, cwd=tmp_path)  # before the CLI imports anything
     assert made.returncode == 0 and "(360,)" in made.stdout, made.stderr
+    # backend="warp" without the [warp] extra: one line naming it
+    code = (
+        "import gymnasium as gym, bubblerob_env\n"
+        "try:\n"
+        "    gym.make_vec('BubbleRob-v0', 2, vectorization_mode='vector_entry_point', "
+        "backend='warp')\n"
+        "except ValueError as error:\n"
+        "    print(error)"
+    )
+    refused = _run(prefix, "python", "-c", code, cwd=tmp_path)
+    assert refused.stdout.strip() == (
+        "backend='warp' needs MuJoCo Warp: pip install 'bubblerob[warp]' "
+        "(mujoco-warp and warp-lang)"
+    ), refused.stderr
     _help_and_refusals(prefix, None, tmp_path)
 
 
