@@ -231,3 +231,24 @@ def test_same_step_device_outputs_keep_the_last_steps_reward() -> None:
     assert np.array_equal(rewards.numpy(), expected[1].astype(np.float32))
     assert np.array_equal(obs["laser"].numpy(), expected[0]["laser"])  # the reset observations
     assert info["_final_obs"].all()
+
+
+def test_reset_mask_resets_only_those_worlds_and_a_diverged_world_truncates() -> None:
+    env = _make("warp", max_episode_steps=50)
+    env.reset(seed=40)
+    for _ in range(3):
+        env.step(np.full((N, 2), 0.5, dtype=np.float32))
+    _, info = env.reset(options={"reset_mask": np.array([False, True, False, False])})
+    assert info["_sim_time"].tolist() == [False, True, False, False]
+    _, _, _, _, info = env.step(np.zeros((N, 2), dtype=np.float32))
+    assert np.allclose(info["sim_time"], [0.2, 0.05, 0.2, 0.2], atol=1e-6)
+    qvel = env.worlds.data.qvel.numpy()
+    qvel[2, 0] = np.nan  # as a blown-up simulation leaves it
+    env.worlds.data.qvel.assign(qvel)
+    _, _, terminated, truncated, info = env.step(np.zeros((N, 2), dtype=np.float32))
+    assert truncated.tolist() == [False, False, True, False] and not terminated.any()
+    assert info["_physics_diverged"].tolist() == [False, False, True, False]
+    assert "not finite" in info["physics_diverged"][2] and not info["is_success"][2]
+    obs, rewards, _, truncated, info = env.step(np.zeros((N, 2), dtype=np.float32))
+    assert rewards[2] == 0.0 and info["sim_time"][2] == 0.0  # reset, as Gymnasium's NextStep
+    assert np.isfinite(obs["laser"]).all() and np.isfinite(env.worlds.data.qvel.numpy()).all()
