@@ -101,10 +101,10 @@ class DeviceWorlds:
         n: int,
         device: str | None,
         max_episode_steps: int | None,
-        cuda_graphs: bool = True,
+        graphs: bool = True,
     ) -> None:
         self.device = wp.get_device(device)
-        self.cuda_graphs = cuda_graphs
+        self.graphs = graphs
         self._graphs: dict[str, Any] = {}
         self._seen: set[str] = set()
         self.n = n
@@ -201,9 +201,11 @@ class DeviceWorlds:
             )
 
     def _run(self, name: str, body: Any) -> None:
-        """``body()`` on the device; on a GPU, as a CUDA graph captured on the second call.
+        """``body()`` on the device, replayed as a Warp graph captured on the second call.
 
-        The first call runs it plainly (Warp loads kernels then, which a capture cannot).
+        The first call runs it plainly (Warp loads kernels then, which a capture cannot). Warp
+        captures on the CPU too (1.19): there a replay skips the Python of ~400 launches, 2.6x
+        faster at 32 worlds, with identical results (tests/warp compares them).
         """
         with wp.ScopedDevice(self.device):
             graph = self._graphs.get(name)
@@ -211,7 +213,7 @@ class DeviceWorlds:
                 wp.capture_launch(graph)
                 return
             body()
-            if self.cuda_graphs and self.device.is_cuda and name in self._seen:
+            if self.graphs and name in self._seen:
                 with wp.ScopedCapture(device=self.device) as capture:
                     body()
                 self._graphs[name] = capture.graph

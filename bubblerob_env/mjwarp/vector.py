@@ -55,8 +55,8 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
         autoreset_mode: ``"NextStep"`` (Gymnasium's default) or ``"SameStep"``.
         layout_bank: Arenas the autoresets draw from (made at each seeded reset).
         outputs: ``"numpy"`` or ``"warp"`` (see the module docstring).
-        cuda_graphs: On a GPU, replay each step's launches as CUDA graphs (captured on the
-            second step). Not yet run on a GPU by this project: ``False`` launches plainly.
+        graphs: Replay each step's launches as Warp graphs (captured on the second step; CUDA
+            graphs on a GPU, Warp's own on the CPU). ``False`` launches them one by one.
         **kwargs: The arguments of :class:`~bubblerob_env.env.BubbleRobEnv`; no camera and no
             ``render_mode`` (rendering stays with the CPU backend).
     """
@@ -70,13 +70,13 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
         autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
         layout_bank: int = 1024,
         outputs: str = "numpy",
-        cuda_graphs: bool = True,
+        graphs: bool = True,
         **kwargs: Any,
     ) -> None:
         check_int_range("num_envs", num_envs, 1)
         check_int_range("layout_bank", layout_bank, 1)
         check_choice("outputs", outputs, OUTPUTS)
-        check_bool("cuda_graphs", cuda_graphs)
+        check_bool("graphs", graphs)
         if max_episode_steps is not None:
             check_int_range("max_episode_steps", max_episode_steps, 1)
         modes = [AutoresetMode.NEXT_STEP.value, AutoresetMode.SAME_STEP.value]
@@ -102,7 +102,7 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
         self.single_action_space = first.action_space
         self.observation_space = batch_space(first.observation_space, num_envs)
         self.action_space = batch_space(first.action_space, num_envs)
-        self.worlds = DeviceWorlds(first, num_envs, device, max_episode_steps, cuda_graphs)
+        self.worlds = DeviceWorlds(first, num_envs, device, max_episode_steps, graphs)
         """The device state: MuJoCo Warp's model and data, the readings, the kernels' settings."""
         self.device = self.worlds.device
         self.arena_seeds = np.zeros(num_envs, dtype=np.int64)

@@ -252,3 +252,33 @@ def test_reset_mask_resets_only_those_worlds_and_a_diverged_world_truncates() ->
     obs, rewards, _, truncated, info = env.step(np.zeros((N, 2), dtype=np.float32))
     assert rewards[2] == 0.0 and info["sim_time"][2] == 0.0  # reset, as Gymnasium's NextStep
     assert np.isfinite(obs["laser"]).all() and np.isfinite(env.worlds.data.qvel.numpy()).all()
+
+
+def test_dropped_contacts_are_an_error_not_a_silent_step(monkeypatch: pytest.MonkeyPatch) -> None:
+    from bubblerob_env.mjwarp import device
+
+    monkeypatch.setattr(device, "CONTACTS_PER_WORLD", 1)  # a robot at rest has 5 contacts
+    env = _make("warp")
+    with pytest.raises(RuntimeError, match="world 0: MuJoCo Warp's buffers overflowed"):
+        env.reset(seed=0)
+        env.step(np.zeros((N, 2), dtype=np.float32))
+    with pytest.raises(ValueError, match="graphs must be True or False, got 'yes'"):
+        make_vector_env(2, backend="warp", device="cpu", graphs="yes")
+
+
+def test_graph_replays_step_the_worlds_as_plain_launches_do() -> None:
+    """From the third step a step is a replayed Warp graph: the same episodes, bit for bit."""
+    runs = []
+    for graphs in (False, True):
+        env = _make("warp", max_episode_steps=6, graphs=graphs, laser_noise_std=0.01)
+        obs, _ = env.reset(seed=50)
+        rng = np.random.default_rng(50)
+        trace = [obs["laser"]]
+        for _ in range(14):  # through two autoresets
+            obs, rewards, terminated, truncated, info = env.step(
+                rng.uniform(-1, 1, (N, 2)).astype(np.float32)
+            )
+            trace += [obs["laser"], rewards, terminated, truncated, info["x"]]
+        assert sorted(env.worlds._graphs) == (["physics", "sense"] if graphs else [])
+        runs.append(trace)
+    assert all(np.array_equal(a, b) for a, b in zip(*runs, strict=True))
