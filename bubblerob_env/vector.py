@@ -44,7 +44,15 @@ from bubblerob_env.env import BubbleRobEnv
 from bubblerob_env.infos import batched_step_info, robot_step_info
 from bubblerob_env.odometry import Odometry, draw_slip
 
-__all__ = ["ARENA_MEMORY", "BubbleRobVectorEnv", "add_finals", "collate_infos"]
+__all__ = [
+    "ARENA_MEMORY",
+    "BubbleRobVectorEnv",
+    "add_finals",
+    "checked_actions",
+    "checked_autoreset_mode",
+    "collate_infos",
+    "reset_mask",
+]
 
 ARENA_MEMORY = 256 * 1024
 """Bytes of each robot's ``MjData`` arena (contacts, constraints, stack) instead of MuJoCo's 13 MB
@@ -109,12 +117,7 @@ class BubbleRobVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
         check_int_range("num_threads", threads, 1)
         if max_episode_steps is not None:
             check_int_range("max_episode_steps", max_episode_steps, 1)
-        modes = (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP)
-        if autoreset_mode not in modes and autoreset_mode not in [m.value for m in modes]:
-            raise ValueError(
-                f"autoreset_mode must be one of {[m.value for m in modes]}, got {autoreset_mode!r}"
-            )
-        self.autoreset_mode = AutoresetMode(autoreset_mode)
+        self.autoreset_mode = checked_autoreset_mode(autoreset_mode)
         first = _BatchEnv(**kwargs)
         # Clones share the first robot's read-only parts; spawn them before any reset.
         self.envs: list[BubbleRobEnv] = [first, *(first._spawn() for _ in range(num_envs - 1))]
@@ -158,11 +161,7 @@ class BubbleRobVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
     ) -> tuple[BatchObs, dict[str, Any]]:
         """Reset every robot (or those in ``options["reset_mask"]``); ``seed`` as Gymnasium's."""
         self._check_open("reset")
-        options = dict(options or {})
-        mask = options.pop("reset_mask", None)
-        chosen = np.ones(self.num_envs, dtype=bool) if mask is None else np.asarray(mask, bool)
-        if chosen.shape != (self.num_envs,):
-            raise ValueError(f"options['reset_mask'] must have shape ({self.num_envs},)")
+        chosen, options = reset_mask(options, self.num_envs)
         seeds = _seeds(seed, self.num_envs)
         infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
         for i in np.flatnonzero(chosen).tolist():
@@ -243,25 +242,7 @@ class BubbleRobVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
         """Every robot's action, checked before any robot steps (a bad row moves nothing)."""
         if self._needs_reset:
             raise RuntimeError("step() called before reset(): reset the vector env first")
-        try:
-            checked = np.asarray(actions, dtype=np.float64)
-        except (TypeError, ValueError, OverflowError) as error:
-            raise ValueError(
-                f"actions must be {self.num_envs} rows of 2 finite numbers: {error}"
-            ) from None
-        if checked.shape != self.action_space.shape:
-            raise ValueError(
-                f"actions must have shape {self.action_space.shape}, got {checked.shape}"
-            )
-        bad = ~np.isfinite(checked).all(axis=1)
-        if bad.any():
-            rows = np.flatnonzero(bad)
-            raise ValueError(
-                f"actions of robot(s) {rows.tolist()} contain NaN or infinity "
-                f"({checked[rows[0]].tolist()}); actions must be finite numbers, and are clipped "
-                "to [-1, 1]; no robot was stepped"
-            )
-        return checked
+        return checked_actions(actions, self.num_envs)
 
     def _step(self, actions: NDArray[np.float32]) -> tuple[Any, ...]:
         """One step of the batch: kernel, time limits, autoresets; the pieces of both APIs."""
@@ -429,6 +410,45 @@ class BubbleRobVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
         pool = getattr(self, "_pool", None)
         if pool is not None:
             pool.shutdown()
+
+
+def checked_autoreset_mode(value: str | AutoresetMode) -> AutoresetMode:
+    """``value`` as a Gymnasium autoreset mode the batch supports, or a ``ValueError``."""
+    modes = [AutoresetMode.NEXT_STEP.value, AutoresetMode.SAME_STEP.value]
+    if value not in modes and getattr(value, "value", None) not in modes:
+        raise ValueError(f"autoreset_mode must be one of {modes}, got {value!r}")
+    return AutoresetMode(value)
+
+
+def reset_mask(
+    options: dict[str, Any] | None, num_envs: int
+) -> tuple[NDArray[np.bool_], dict[str, Any]]:
+    """The robots ``reset`` resets (``options["reset_mask"]``, default all), other options."""
+    left = dict(options or {})
+    mask = left.pop("reset_mask", None)
+    chosen = np.ones(num_envs, dtype=bool) if mask is None else np.asarray(mask, bool)
+    if chosen.shape != (num_envs,):
+        raise ValueError(f"options['reset_mask'] must have shape ({num_envs},)")
+    return chosen, left
+
+
+def checked_actions(actions: Any, num_envs: int) -> NDArray[np.float64]:
+    """Every robot's action, checked before any robot steps (a bad row moves nothing)."""
+    try:
+        checked = np.asarray(actions, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError) as error:
+        raise ValueError(f"actions must be {num_envs} rows of 2 finite numbers: {error}") from None
+    if checked.shape != (num_envs, 2):
+        raise ValueError(f"actions must have shape ({num_envs}, 2), got {checked.shape}")
+    bad = ~np.isfinite(checked).all(axis=1)
+    if bad.any():
+        rows = np.flatnonzero(bad)
+        raise ValueError(
+            f"actions of robot(s) {rows.tolist()} contain NaN or infinity "
+            f"({checked[rows[0]].tolist()}); actions must be finite numbers, and are clipped "
+            "to [-1, 1]; no robot was stepped"
+        )
+    return checked
 
 
 def _robot_obs(obs: Any, i: int) -> Any:

@@ -11,6 +11,7 @@ them on a GPU.
 
 from __future__ import annotations
 
+import copy
 import math
 from typing import Any
 
@@ -40,7 +41,8 @@ DRIVES = ("straight", "curve", "random")
 def cpu_laser(env: WarpVectorEnv, world: int) -> NDArray[np.float64]:
     """``mj_multiRay`` from the laser site, on world ``world``'s state copied into CPU MuJoCo."""
     template = env._template
-    model, data = template.model, mujoco.MjData(template.model)
+    model = copy.deepcopy(template.model)  # the backend's own env stays as it was
+    data = mujoco.MjData(model)
     worlds = env.worlds
     slots = [slot for kind in template._slots._free.values() for slot in kind]
     for geom, _, bvh in slots:  # sizes, and the bounding boxes mj_multiRay culls with

@@ -22,10 +22,11 @@ from mujoco_warp._src.types import OverflowType, vec6
 from numpy.typing import NDArray
 
 from bubblerob_env import names
-from bubblerob_env.core.kernel import OUT, OUT_SIZE
+from bubblerob_env.core.kernel import CFG, ICFG, OUT, OUT_SIZE
 from bubblerob_env.env import BubbleRobEnv
 from bubblerob_env.mjwarp import kernels as K
 from bubblerob_env.mjwarp.layouts import LayoutTable, slot_geoms
+from bubblerob_env.vector import checked_actions
 
 __all__ = ["CONTACTS_PER_WORLD", "CONSTRAINTS_PER_WORLD", "DeviceWorlds", "HostCopy"]
 
@@ -63,32 +64,33 @@ class HostCopy:
 
 
 def _settings(env: BubbleRobEnv, max_episode_steps: int | None) -> K.Settings:
+    """The CPU kernel's settings of ``env`` (:mod:`bubblerob_env.core.robots`), as Warp's."""
+    icfg, cfg = env._core.icfg, env._core.cfg
     s = K.Settings()
-    model, drive, spec = env.model, env.drive, env.laser_spec
-    s.twist = int(env.action_type == "twist")
-    s.max_wheel, s.max_linear = drive.max_wheel_speed, env.max_linear_speed
-    s.max_angular, s.wheel_radius = env.max_angular_speed, drive.wheel_radius
-    s.wheel_separation = drive.wheel_separation
-    s.has_laser = int(spec is not None)
-    s.range_max = spec.range_max if spec is not None else 0.0
+    s.twist, s.has_laser = int(icfg[ICFG.TWIST]), int(icfg[ICFG.LASER])
+    s.max_wheel, s.max_linear = float(cfg[CFG.MAX_WHEEL]), float(cfg[CFG.MAX_LINEAR])
+    s.max_angular, s.wheel_radius = float(cfg[CFG.MAX_ANGULAR]), float(cfg[CFG.WHEEL_RADIUS])
+    s.wheel_separation = float(cfg[CFG.WHEEL_SEPARATION])
+    s.range_max = float(cfg[CFG.RANGE_MAX])
+    # float32's own step below range_max: float64's rounds back up to range_max in float32.
     s.noisy_ceiling = float(np.nextafter(np.float32(s.range_max), np.float32(0)))
-    s.laser_noise = spec.noise_std if spec is not None else 0.0
-    s.proximity_max = env.proximity_spec.range_max
-    s.limit_linear, s.limit_angular = (float(v) for v in env._velocity_limit)
-    s.forward_weight, s.spin_weight = env.forward_reward_weight, env.spin_cost_weight
-    s.clearance_weight, s.clearance_distance = env.clearance_cost_weight, env.clearance_distance
-    s.hull, s.collision_penalty = env.robot.radius, env.collision_penalty
+    s.laser_noise = env.laser_spec.noise_std if env.laser_spec is not None else 0.0
+    s.proximity_max = float(cfg[CFG.PROXIMITY_MAX])
+    s.limit_linear = float(cfg[CFG.VELOCITY_LIMIT_LINEAR])
+    s.limit_angular = float(cfg[CFG.VELOCITY_LIMIT_ANGULAR])
+    s.forward_weight, s.spin_weight = float(cfg[CFG.FORWARD_WEIGHT]), float(cfg[CFG.SPIN_WEIGHT])
+    s.clearance_weight = float(cfg[CFG.CLEARANCE_WEIGHT])
+    s.clearance_distance = float(cfg[CFG.CLEARANCE_DISTANCE])
+    s.hull, s.collision_penalty = float(cfg[CFG.HULL]), float(cfg[CFG.COLLISION_PENALTY])
     s.terminate_on_collision = int(env.terminate_on_collision)
     s.max_episode_steps = max_episode_steps or 0
     s.odometry_noise = env.odometry_noise
-    s.velocity_adr = int(model.sensor(names.VELOCIMETER_SENSOR).adr[0])
-    s.gyro_adr = int(model.sensor(names.GYRO_SENSOR).adr[0])
-    s.left_wheel_adr = int(model.sensor(names.LEFT_WHEEL_SPEED_SENSOR).adr[0])
-    s.right_wheel_adr = int(model.sensor(names.RIGHT_WHEEL_SPEED_SENSOR).adr[0])
-    s.proximity_adr = int(model.sensor(names.PROXIMITY_SENSOR).adr[0])
-    s.root_qpos = int(model.joint(names.ROOT_JOINT).qposadr[0])
-    s.root_dof = int(model.joint(names.ROOT_JOINT).dofadr[0])
-    s.laser_site = int(model.site(names.LASER_SITE).id)
+    s.velocity_adr, s.gyro_adr = int(icfg[ICFG.VELOCITY_ADR]), int(icfg[ICFG.GYRO_ADR])
+    s.left_wheel_adr = int(icfg[ICFG.WHEEL_ADR])
+    s.right_wheel_adr = int(icfg[ICFG.WHEEL_ADR + 1])
+    s.proximity_adr = int(icfg[ICFG.PROXIMITY_ADR])
+    s.root_qpos = int(env.model.joint(names.ROOT_JOINT).qposadr[0])
+    s.laser_site = int(env.model.site(names.LASER_SITE).id)
     return s
 
 
@@ -166,7 +168,7 @@ class DeviceWorlds:
     def set_actions(self, actions: Any) -> None:
         """Copy the actions to the device, or a ``ValueError`` (nothing moves) if one is bad."""
         if isinstance(actions, np.ndarray) or not hasattr(actions, "__dlpack__"):
-            self.actions.assign(_checked(actions, self.n))
+            self.actions.assign(checked_actions(actions, self.n).astype(np.float32))
             return
         source = actions if isinstance(actions, wp.array) else wp.from_dlpack(actions)
         assert isinstance(source, wp.array)
@@ -371,21 +373,3 @@ class DeviceWorlds:
                 wp.array(terminated, dtype=bool),
                 wp.array(truncated, dtype=bool),
             )
-
-
-def _checked(actions: Any, n: int) -> NDArray[np.float32]:
-    try:
-        checked = np.asarray(actions, dtype=np.float64)
-    except (TypeError, ValueError, OverflowError) as error:
-        raise ValueError(f"actions must be {n} rows of 2 finite numbers: {error}") from None
-    if checked.shape != (n, 2):
-        raise ValueError(f"actions must have shape ({n}, 2), got {checked.shape}")
-    bad = ~np.isfinite(checked).all(axis=1)
-    if bad.any():
-        rows = np.flatnonzero(bad)
-        raise ValueError(
-            f"actions of robot(s) {rows.tolist()} contain NaN or infinity "
-            f"({checked[rows[0]].tolist()}); actions must be finite numbers, and are clipped "
-            "to [-1, 1]; no robot was stepped"
-        )
-    return checked.astype(np.float32)

@@ -91,7 +91,6 @@ class Settings:
     right_wheel_adr: int
     proximity_adr: int
     root_qpos: int
-    root_dof: int
     laser_site: int
 
 

@@ -36,7 +36,13 @@ from bubblerob_env.env import BubbleRobEnv
 from bubblerob_env.infos import batched_step_info, robot_info, robot_step_info
 from bubblerob_env.mjwarp.device import DeviceWorlds, HostCopy
 from bubblerob_env.mjwarp.layouts import LayoutTable
-from bubblerob_env.vector import _seeds, add_finals, collate_infos
+from bubblerob_env.vector import (
+    _seeds,
+    add_finals,
+    checked_autoreset_mode,
+    collate_infos,
+    reset_mask,
+)
 
 __all__ = ["OUTPUTS", "WarpVectorEnv"]
 
@@ -79,9 +85,7 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
         check_bool("graphs", graphs)
         if max_episode_steps is not None:
             check_int_range("max_episode_steps", max_episode_steps, 1)
-        modes = [AutoresetMode.NEXT_STEP.value, AutoresetMode.SAME_STEP.value]
-        if autoreset_mode not in modes and getattr(autoreset_mode, "value", None) not in modes:
-            raise ValueError(f"autoreset_mode must be one of {modes}, got {autoreset_mode!r}")
+        self.autoreset_mode = checked_autoreset_mode(autoreset_mode)
         if kwargs.get("camera"):
             raise ValueError("camera=True is not available with backend='warp'; use backend='cpu'")
         if kwargs.get("render_mode") is not None:
@@ -89,7 +93,6 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
                 f"render_mode={kwargs['render_mode']!r} is not available with backend='warp'; "
                 "use backend='cpu' to render"
             )
-        self.autoreset_mode = AutoresetMode(autoreset_mode)
         self._template = BubbleRobEnv(**kwargs)  # checks every kwarg; draws the arenas
         first = self._template
         self.num_envs = num_envs
@@ -124,13 +127,9 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
     ) -> tuple[Any, dict[str, Any]]:
         """Reset every world (or those in ``options["reset_mask"]``); ``seed`` as Gymnasium's."""
         self._check_open("reset")
-        options = dict(options or {})
-        mask = options.pop("reset_mask", None)
-        if options:
-            raise ValueError(f"options may hold only 'reset_mask', got {sorted(options)}")
-        chosen = np.ones(self.num_envs, dtype=bool) if mask is None else np.asarray(mask, bool)
-        if chosen.shape != (self.num_envs,):
-            raise ValueError(f"options['reset_mask'] must have shape ({self.num_envs},)")
+        chosen, left = reset_mask(options, self.num_envs)
+        if left:
+            raise ValueError(f"options may hold only 'reset_mask', got {sorted(left)}")
         seeds = _seeds(seed, self.num_envs)
         base = seeds[0] if seeds[0] is not None else None
         if base is not None:
@@ -206,7 +205,7 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
         self.worlds.reset(resetting, self._bank, rows)
 
     def _observations(self, host: HostCopy, host_only: bool = False) -> Any:
-        """Numpy observations (copies), or the device's when ``outputs="warp"``."""
+        """Numpy observations, or the device's when ``outputs="warp"``."""
         if self.outputs == "warp" and not host_only:
             return self.worlds.device_observations(self._template.obs_mode)
         parts: dict[str, NDArray[Any]] = {}
@@ -216,7 +215,7 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
         parts["velocity"] = host.velocity
         if self._template.obs_mode == "flat":
             return np.concatenate(list(parts.values()), axis=1)
-        return {key: value.copy() for key, value in parts.items()}
+        return parts  # the host copy's own arrays, new every fetch
 
     def _infos(
         self, host: HostCopy, resets: list[int], with_success: bool = True
@@ -224,9 +223,9 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
         """The CPU batch's ``info``: Gymnasium's dict of arrays, from the device's numbers."""
         diverged = {i: _DIVERGED_REASON for i in np.flatnonzero(host.diverged).tolist()}
         core, odometry = host, host.odometry
-        reset_infos = {i: robot_info(core, i, self._trigger, 0, odometry) for i in resets}
         if not with_success:  # reset(): every chosen world's reset info, no is_success
             return _collate_resets(core, self._trigger, odometry, resets, self.num_envs)
+        reset_infos = {i: robot_info(core, i, self._trigger, 0, odometry) for i in resets}
         return batched_step_info(
             core,
             self._trigger,
@@ -280,7 +279,6 @@ def _collate_resets(
     resets: list[int],
     n: int,
 ) -> dict[str, Any]:
-    infos = [
-        robot_info(core, i, trigger, 0, odometry) if i in set(resets) else {} for i in range(n)
-    ]
+    chosen = set(resets)  # once: a reset of every world has n of them
+    infos = [robot_info(core, i, trigger, 0, odometry) if i in chosen else {} for i in range(n)]
     return collate_infos(infos)
