@@ -105,7 +105,14 @@ class DeviceWorlds:
         max_episode_steps: int | None,
         graphs: bool = True,
     ) -> None:
-        self.device = wp.get_device(device)
+        try:
+            self.device = wp.get_device(device)
+        except ValueError:  # Warp's "Invalid device identifier" does not say what is here
+            here = [d.alias for d in wp.get_devices()]
+            raise ValueError(
+                f"device must be one of this machine's Warp devices {here} (or None: Warp's "
+                f"default), got {device!r}"
+            ) from None
         self.graphs = graphs
         self._graphs: dict[str, Any] = {}
         self._seen: set[str] = set()

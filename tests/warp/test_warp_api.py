@@ -123,6 +123,10 @@ def test_bad_input_is_one_clear_error_and_nothing_moves() -> None:
         make_vector_env(2, backend="warp", device="cpu", outputs="torch")
     with pytest.raises(ValueError, match="device='cuda:0' needs backend='warp'"):
         make_vector_env(2, device="cuda:0")
+    with pytest.raises(
+        ValueError, match=r"device must be one of this machine's Warp devices \[.*'cpu'.*got 'gpu'"
+    ):
+        make_vector_env(2, backend="warp", device="gpu")
     with pytest.raises(TypeError, match="unexpected keyword argument 'lazer'"):
         make_vector_env(2, backend="warp", device="cpu", lazer=1)
     with pytest.raises(RuntimeError, match="before reset"):
