@@ -166,7 +166,7 @@ def run_node(
             text=True,
         )
     node = subprocess.run(
-        [python, "-m", "bubblerob_env.cli", "node", *args],
+        [python, "-m", "bubblerob_cli", "node", *args],
         env={**os.environ, **ros_env},
         capture_output=True,
         text=True,

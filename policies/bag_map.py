@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from bubblerob_env.cli import env_kwargs_json
+from bubblerob_cli.args import env_kwargs_json
 from bubblerob_env.mapping import (
     DEFAULT_RESOLUTION,
     OCCUPIED,

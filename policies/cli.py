@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from bubblerob_env.cli import add_env_arguments
+from bubblerob_cli.args import add_env_arguments
 from policies.evaluation import (
     DEFAULT_EVAL_SEED,
     EvalResult,

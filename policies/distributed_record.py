@@ -179,7 +179,7 @@ def record_on_ray(
 
 
 def _check_policy(args: Any) -> None:
-    from bubblerob_env.cli import make_env
+    from bubblerob_cli.args import make_env
     from policies.loading import load_policy
 
     env = make_env("record", args.env, _env_kwargs(args))

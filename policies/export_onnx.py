@@ -224,7 +224,7 @@ def export_onnx(model_path: Path, out: Path | None = None) -> Path:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``python -m policies.export_onnx``."""
-    from bubblerob_env.cli import HelpFormatter
+    from bubblerob_cli.args import HelpFormatter
 
     parser = argparse.ArgumentParser(
         prog="python -m policies.export_onnx",

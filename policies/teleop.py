@@ -147,7 +147,7 @@ def _drive(
 
 def _ros_limits(args: argparse.Namespace) -> tuple[float, float]:
     """The robot's top speed (m/s) and turn rate (rad/s): those of ``--env``, as the node's."""
-    from bubblerob_env.cli import make_env
+    from bubblerob_cli.args import make_env
 
     env = make_env("teleop", args.env, args.env_kwargs)
     base: Any = env.unwrapped
@@ -230,7 +230,7 @@ def _run(args: argparse.Namespace) -> int:
         return 2
     if args.ros is not None:
         return _run_ros(args)
-    from bubblerob_env.cli import make_env
+    from bubblerob_cli.args import make_env
 
     kwargs: dict[str, Any] = {"action_type": "twist"}  # the keys drive speed and turn rate
     if args.start_pose is not None:
@@ -299,7 +299,7 @@ def add_subcommands(subparsers: Any) -> None:
     parser.add_argument(
         "--record", metavar="DIR", default=None, help="record the drive as a bag (ros extra)"
     )
-    from bubblerob_env.cli import add_env_arguments  # the command module imports this one
+    from bubblerob_cli.args import add_env_arguments  # the command module imports this one
 
     add_env_arguments(parser)
     parser.add_argument(

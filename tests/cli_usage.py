@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import pytest
 
-from bubblerob_env import cli
+from bubblerob_cli import main as cli
 
 
 @dataclass(frozen=True)

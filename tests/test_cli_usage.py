@@ -106,7 +106,7 @@ def test_a_damaged_policy_file_is_one_line_naming_it(tmp_path, capsys):
 )
 def test_teleop_mistakes_are_one_line_without_a_terminal(argv, says):
     result = subprocess.run(
-        [sys.executable, "-m", "bubblerob_env.cli", *argv],
+        [sys.executable, "-m", "bubblerob_cli", *argv],
         stdin=subprocess.DEVNULL,
         capture_output=True,
         text=True,

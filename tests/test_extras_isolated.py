@@ -22,7 +22,7 @@ from pathlib import Path
 import pytest
 from packaging.requirements import Requirement
 
-from bubblerob_env.cli import build_parser
+from bubblerob_cli.main import build_parser
 
 ROOT = Path(__file__).resolve().parents[1]
 SITE = Path(sysconfig.get_paths()["purelib"])
@@ -138,10 +138,10 @@ def _venv(wheel: Path, installed: Path, extra: str | None, home: Path) -> Path:
 def _run(
     prefix: Path, *args: str, cwd: Path, timeout: int = 300
 ) -> subprocess.CompletedProcess[str]:
-    """``bubblerob ARGS`` (``python -m bubblerob_env.cli``), or ``python ...``, in the venv."""
+    """``bubblerob ARGS`` (``python -m bubblerob_cli``), or ``python ...``, in the venv."""
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
     env["PATH"] = f"{prefix / 'bin'}{os.pathsep}{env['PATH']}"
-    command = list(args[1:]) if args[0] == "python" else ["-m", "bubblerob_env.cli", *args[1:]]
+    command = list(args[1:]) if args[0] == "python" else ["-m", "bubblerob_cli", *args[1:]]
     return subprocess.run(
         [str(prefix / "bin" / "python"), *command],
         cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout, check=False,
@@ -156,7 +156,7 @@ def test_every_subcommand_is_listed_under_an_extra() -> None:
 
 HELP_AND_REFUSALS = """
 import contextlib, io, json, sys
-from bubblerob_env.cli import main
+from bubblerob_cli.main import main
 
 helped, refused = {}, {}
 for command in sys.argv[1].split(","):

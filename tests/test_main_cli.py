@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from bubblerob_env.cli import EXAMPLES, build_parser
+from bubblerob_cli.main import EXAMPLES, build_parser
 from bubblerob_env.extras import missing_requirements
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -17,7 +17,7 @@ SUBCOMMANDS = ("demo", "evaluate", "train", "record", "info", "replay", "node")
 
 
 def _bubblerob(*args: str, code: str = "", timeout: int = 120) -> subprocess.CompletedProcess[str]:
-    script = f"import sys\n{code}\nfrom bubblerob_env.cli import main\nsys.exit(main(sys.argv[1:]))"
+    script = f"import sys\n{code}\nfrom bubblerob_cli.main import main\nsys.exit(main(sys.argv[1:]))"
     return subprocess.run(
         [sys.executable, "-c", script, *args],
         capture_output=True,

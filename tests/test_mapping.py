@@ -77,7 +77,7 @@ def test_mapper_marks_a_wall_hit_occupied_and_the_beam_free():
 def test_map_of_a_recorded_laser_episode(tmp_path, capsys):
     """README's commands for docs/images/map.png, run into tmp_path: IoU >= 0.9."""
     pytest.importorskip("rosbags")
-    from bubblerob_env.cli import main
+    from bubblerob_cli.main import main
 
     bags = tmp_path / "bags"
     assert (

@@ -119,9 +119,9 @@ def test_wheel_holds_every_data_file_of_the_packages(wheel):
 def test_installed_modules_come_from_the_wheel_not_the_checkout(venv, tmp_path):
     code = (
         "import bubblerob_env, policies, train, policies.export_onnx, bubblerob_env.ros, "
-        "bubblerob_env.cli; import sys; "
+        "bubblerob_cli.main; import sys; "
         "print('\\n'.join(m.__file__ for n, m in list(sys.modules.items()) "
-        "if n.split('.')[0] in ('bubblerob_env', 'policies', 'train') "
+        "if n.split('.')[0] in ('bubblerob_cli', 'bubblerob_env', 'policies', 'train') "
         "and getattr(m, '__file__', None)))"
     )
     result = _run(venv, ["python", "-c", code], tmp_path)

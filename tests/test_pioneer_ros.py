@@ -6,7 +6,7 @@ import pytest
 
 pytest.importorskip("rosbags")
 
-from bubblerob_env import cli  # noqa: E402
+from bubblerob_cli import main as cli  # noqa: E402
 
 
 def test_record_info_replay_and_map_a_pioneer_bag(tmp_path, capsys):

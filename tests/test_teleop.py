@@ -34,7 +34,7 @@ def test_keys_change_the_twist():
 
 
 TELEOP = (
-    f"{sys.executable} -m bubblerob_env.cli teleop --start-pose 0 0 1.5708 "
+    f"{sys.executable} -m bubblerob_cli teleop --start-pose 0 0 1.5708 "
     "--num-obstacles 0 0 --seed 0 --max-seconds 60"
 )
 """Start at the centre facing +y (yaw pi/2), no obstacles: forward must move +y, not x."""
@@ -100,7 +100,7 @@ def test_ctrl_c_quits_as_q_without_a_traceback_and_keeps_the_bag(tmp_path: Path)
     assert match and float(match.group(2)) > 0.05, text
     assert "Traceback" not in log.read_text() + text
     info = subprocess.run(
-        [sys.executable, "-m", "bubblerob_env.cli", "info", str(bag)],
+        [sys.executable, "-m", "bubblerob_cli", "info", str(bag)],
         capture_output=True, text=True, timeout=120, check=False,
     )  # fmt: skip
     assert info.returncode == 0 and "/odom" in info.stdout, info.stdout + info.stderr
@@ -110,7 +110,7 @@ def test_ctrl_c_quits_as_q_without_a_traceback_and_keeps_the_bag(tmp_path: Path)
 def test_old_style_env_key_json_is_one_line_naming_env_kwargs(command, capsys):
     # `node --env KEY=JSON` was the node's form; --env is now the env id, as evaluate's.
     pytest.importorskip("rosbags")
-    from bubblerob_env import cli
+    from bubblerob_cli import main as cli
 
     with pytest.raises(SystemExit) as exit_:
         cli.main([*command, "--env", "num_obstacles=[0,0]"])

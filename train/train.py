@@ -378,7 +378,7 @@ EXAMPLE = (
 
 def build_parser(prog: str = "python -m train") -> argparse.ArgumentParser:
     """Command-line arguments of ``python -m train``."""
-    from bubblerob_env.cli import HelpFormatter
+    from bubblerob_cli.args import HelpFormatter
 
     parser = argparse.ArgumentParser(
         prog=prog,

@@ -15,7 +15,7 @@ import gymnasium as gym
 import numpy as np
 
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
-from bubblerob_env.cli import add_env_arguments, make_env
+from bubblerob_cli.args import add_env_arguments, make_env
 from bubblerob_env.mapping import check_resolution
 from bubblerob_env.ros.bags.sinks import COMPRESSIONS, FORMATS
 from bubblerob_env.ros.messages.topics import PRESETS, topics_preset

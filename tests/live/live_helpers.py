@@ -86,5 +86,5 @@ class Node(NodeProcess):
     """A ``bubblerob node`` subprocess on ``master``; stdout/stderr collected by threads."""
 
     def __init__(self, master: Master, args: list[str], ready_timeout: float = 60.0) -> None:
-        command = [sys.executable, "-m", "bubblerob_env.cli", "node"]
+        command = [sys.executable, "-m", "bubblerob_cli", "node"]
         super().__init__(command, master.venv_env, args, ready_timeout)

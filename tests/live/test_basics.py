@@ -98,7 +98,7 @@ def test_node_without_master_exits_with_a_clear_message():
     env = {"ROS_MASTER_URI": f"http://127.0.0.1:{free_port()}/", "ROS_HOSTNAME": "127.0.0.1"}
     start = time.monotonic()
     result = subprocess.run(
-        [sys.executable, "-m", "bubblerob_env.cli", "node"],
+        [sys.executable, "-m", "bubblerob_cli", "node"],
         env={**__import__("os").environ, **env},
         capture_output=True,
         text=True,
@@ -241,7 +241,7 @@ def test_launch_file_passes_env_env_kwargs_and_topics_to_the_node():
     # roslaunch splits a node's args with shlex: the JSON object stays one argument.
     import shlex
 
-    from bubblerob_env.cli import build_parser
+    from bubblerob_cli.main import build_parser
 
     kwargs = '{"num_obstacles": [0, 0], "start_pose": [0, 0, 0]}'
     result = subprocess.run(

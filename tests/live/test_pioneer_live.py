@@ -100,7 +100,7 @@ def test_vrep_cmd_vel_drives_forward_and_counter_clockwise(vrep):
 
 TELEOP_LINK = """
 import json, sys, time
-from bubblerob_env.cli import build_parser
+from bubblerob_cli.main import build_parser
 from bubblerob_env.ros.messages.topics import topics_preset
 from policies.teleop import TeleopState, _ros_limits
 from policies.teleop_ros import RosLink

@@ -30,7 +30,7 @@ def test_teleop_drives_a_ros1_node(master, start_node):
     ros = {k: v for k, v in master.venv_env.items() if k.startswith("ROS_")}
     env = " ".join(f"{k}={shlex.quote(v)}" for k, v in ros.items())
     command = (
-        f"env -u ROS_NAMESPACE {env} {shlex.quote(sys.executable)} -m bubblerob_env.cli "
+        f"env -u ROS_NAMESPACE {env} {shlex.quote(sys.executable)} -m bubblerob_cli "
         "teleop --ros 1 --namespace tele --max-seconds 90"
     )
     result = drive_in_tmux(command, f"bubblerob-teleop-ros1-{id(node)}", lambda: odom(master))
@@ -52,7 +52,7 @@ def test_teleop_without_a_master_is_one_line(master):
 
     env = {**master.venv_env, "ROS_MASTER_URI": f"http://127.0.0.1:{free_port()}/"}
     result = subprocess.run(
-        [sys.executable, "-m", "bubblerob_env.cli", "teleop", "--ros", "1"],
+        [sys.executable, "-m", "bubblerob_cli", "teleop", "--ros", "1"],
         env=env, capture_output=True, text=True, timeout=60, check=False,
     )  # fmt: skip
     assert result.returncode == 2, result.stderr
@@ -63,7 +63,7 @@ def test_teleop_without_a_master_is_one_line(master):
 
 def test_teleop_ros_refuses_local_options_in_one_line():
     result = subprocess.run(
-        [sys.executable, "-m", "bubblerob_env.cli", "teleop", "--ros", "1", "--record", "x"],
+        [sys.executable, "-m", "bubblerob_cli", "teleop", "--ros", "1", "--record", "x"],
         capture_output=True, text=True, timeout=60, check=False,
     )  # fmt: skip
     assert result.returncode == 2 and len(result.stderr.strip().splitlines()) == 1, result.stderr

@@ -99,5 +99,5 @@ class Node(NodeProcess):
     """A ``bubblerob node --ros 2`` subprocess; stdout/stderr collected by threads."""
 
     def __init__(self, args: list[str], ready_timeout: float = 90.0) -> None:
-        command = [str(ROS2_PYTHON), "-m", "bubblerob_env.cli", "node", "--ros", "2"]
+        command = [str(ROS2_PYTHON), "-m", "bubblerob_cli", "node", "--ros", "2"]
         super().__init__(command, ros2_env(), args, ready_timeout, cwd=ROOT)

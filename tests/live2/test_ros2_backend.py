@@ -41,7 +41,7 @@ def test_tf2_msgs_is_built_from_the_genuine_definition():
 def test_a_bad_domain_id_is_a_clear_error_not_a_dds_exit():
     require_ros2()
     result = subprocess.run(
-        [str(ROS2_PYTHON), "-m", "bubblerob_env.cli", "node", "--ros", "2", "--steps", "1"],
+        [str(ROS2_PYTHON), "-m", "bubblerob_cli", "node", "--ros", "2", "--steps", "1"],
         env=ros2_env(ROS_DOMAIN_ID="500"),
         capture_output=True,
         text=True,

@@ -27,7 +27,7 @@ def test_teleop_drives_a_ros2_node(start_node):
     unset = " ".join(f"-u {k}" for k in ("VIRTUAL_ENV", "PYTHONPATH", "RMW_IMPLEMENTATION"))
     env = " ".join(f"{k}={shlex.quote(v)}" for k, v in ros.items())
     command = (
-        f"env {unset} -u ROS_NAMESPACE {env} {shlex.quote(str(ROS2_PYTHON))} -m bubblerob_env.cli "
+        f"env {unset} -u ROS_NAMESPACE {env} {shlex.quote(str(ROS2_PYTHON))} -m bubblerob_cli "
         "teleop --ros 2 --namespace tele2 --max-seconds 90"
     )
     result = drive_in_tmux(command, f"bubblerob-teleop-ros2-{id(node)}", odom)

@@ -81,7 +81,7 @@ def run_scenarios(
 
 def bubblerob_in_netns(args: list[str], timeout_s: float = 180) -> subprocess.CompletedProcess[str]:
     """``bubblerob ARGS`` in a namespace (the CLI of this interpreter's environment)."""
-    return in_netns([sys.executable, "-m", "bubblerob_env.cli", *args], timeout_s)
+    return in_netns([sys.executable, "-m", "bubblerob_cli", *args], timeout_s)
 
 
 def as_json(row: Any) -> Any:

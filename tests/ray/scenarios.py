@@ -25,7 +25,7 @@ import numpy as np
 import psutil
 import ray
 
-from bubblerob_env.cli import main as bubblerob
+from bubblerob_cli.main import main as bubblerob
 from policies.distributed import evaluate_on_ray
 
 EVAL_POLICIES = ["reactive", "laser", "ppo", "random"]

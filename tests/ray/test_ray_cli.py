@@ -59,7 +59,7 @@ def distribution(name):
         raise metadata.PackageNotFoundError(name)
     return real(name)
 metadata.distribution = distribution
-from bubblerob_env.cli import main
+from bubblerob_cli.main import main
 sys.exit(main(sys.argv[1:]))
 """
 
@@ -91,7 +91,7 @@ def test_readmes_ray_commands_parse() -> None:
     """README's "Past one machine" commands are ones the CLI takes (smaller ones run above)."""
     import shlex
 
-    from bubblerob_env.cli import build_parser
+    from bubblerob_cli.main import build_parser
 
     readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
     section = readme.split("## Past one machine\n", 1)[1].split("\n## ", 1)[0]
@@ -109,7 +109,7 @@ def test_ctrl_c_stops_the_run_in_one_line(tmp_path: Path) -> None:
 
     argv = [*EVALUATE[:5], "--episodes", "100", "--ray", "local"]
     script = "ip link set lo up && exec " + " ".join(
-        [sys.executable, "-m", "bubblerob_env.cli", *argv]
+        [sys.executable, "-m", "bubblerob_cli", *argv]
     )
     stderr = tmp_path / "stderr"
     with stderr.open("w") as sink:

@@ -17,7 +17,7 @@ import gymnasium as gym
 import pytest
 from ray_helpers import as_json, need_netns, run_scenarios
 
-from bubblerob_env.cli import main as bubblerob
+from bubblerob_cli.main import main as bubblerob
 from bubblerob_env.ros.readback.replay import replay_bag
 from bubblerob_env.ros.readback.summary import read_summary
 from policies.evaluation import evaluate, run_episode

@@ -9,7 +9,7 @@ import pytest
 import yaml
 from ray_helpers import as_json, bubblerob_in_netns, need_netns
 
-from bubblerob_env.cli import main as bubblerob
+from bubblerob_cli.main import main as bubblerob
 from policies.evaluation import evaluate
 from train.sweep import VALIDATION_SEED
 

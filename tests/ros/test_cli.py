@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from bubblerob_env import cli
+from bubblerob_cli import main as cli
 from bubblerob_env.ros import cli as ros_cli
 
 

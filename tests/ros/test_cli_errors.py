@@ -24,7 +24,7 @@ from bubblerob_env.ros.readback.summary import read_summary
 
 pytest.importorskip("policies")
 
-RECORD = [sys.executable, "-m", "bubblerob_env.cli", "record", "--policy", "reactive"]
+RECORD = [sys.executable, "-m", "bubblerob_cli", "record", "--policy", "reactive"]
 
 
 def _record(out: Path, *args: str, **kwargs: object) -> subprocess.Popen[str]:
@@ -173,6 +173,6 @@ def test_a_full_disk_is_one_line_and_the_finished_episodes_read_back(tmp_path, f
 
 def test_info_into_a_closed_pipe_is_quiet(record):
     bag = record("mcap", episodes=2, steps=3)
-    shell = f"{sys.executable} -m bubblerob_env.cli info {bag} | head -1"
+    shell = f"{sys.executable} -m bubblerob_cli info {bag} | head -1"
     result = subprocess.run(["bash", "-c", shell], capture_output=True, text=True, timeout=120)
     assert result.stdout.startswith("bag:") and result.stderr == "", result.stderr

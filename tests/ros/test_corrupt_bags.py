@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 from ros_helpers import FORMAT_CASES
 
-from bubblerob_env import cli
+from bubblerob_cli import main as cli
 from bubblerob_env.ros.readback.layout import storage_file
 from bubblerob_env.ros.readback.replay import replay_bag
 from bubblerob_env.ros.readback.summary import read_summary

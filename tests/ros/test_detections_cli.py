@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 from ros_helpers import read_all
 
-from bubblerob_env import cli
+from bubblerob_cli import main as cli
 
 SEED = 9100
 """Seeds 9100 and on: the recogniser's priors were chosen on seeds 0-49."""

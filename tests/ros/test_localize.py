@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bubblerob_env.cli import main
+from bubblerob_cli.main import main
 from bubblerob_env.localisation.picture import ESTIMATE, ODOMETRY, TRUTH
 
 ROOT = Path(__file__).resolve().parents[2]

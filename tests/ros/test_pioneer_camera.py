@@ -14,7 +14,7 @@ import pytest
 
 pytest.importorskip("rosbags")
 
-from bubblerob_env import cli  # noqa: E402
+from bubblerob_cli import main as cli  # noqa: E402
 from bubblerob_env.vision.recognise import CUT_HALF_WIDTH, Recogniser  # noqa: E402
 
 

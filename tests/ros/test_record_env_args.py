@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from bubblerob_env import cli
+from bubblerob_cli import main as cli
 
 
 def test_record_a_non_default_env_and_replay_it(tmp_path, capsys):

@@ -11,7 +11,7 @@ import pytest
 from mcap.reader import make_reader
 from ros_helpers import missing_debian_ros, read_all, run_debian
 
-from bubblerob_env import cli
+from bubblerob_cli import main as cli
 from bubblerob_env.ros.readback.replay import replay_bag
 from bubblerob_env.ros.readback.summary import read_summary
 

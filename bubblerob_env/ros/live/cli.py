@@ -11,7 +11,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from bubblerob_env.cli import add_env_arguments, make_env
+from bubblerob_cli.args import add_env_arguments, make_env
 
 if TYPE_CHECKING:
     from bubblerob_env.ros.live.node import SimNode

@@ -1,4 +1,4 @@
-"""The ``bubblerob`` command: one entry point, subcommands registered by the optional parts.
+"""The ``bubblerob`` command: one entry point, one module of ``bubblerob_cli`` per command group.
 
 The env itself needs none of them. Every subcommand is always listed; one whose extra is not
 installed exits at start with one line naming the extra to install (no traceback).
@@ -14,29 +14,24 @@ from collections.abc import Sequence
 from importlib import metadata
 from typing import Any
 
+from bubblerob_cli.args import HelpFormatter
 from bubblerob_env.extras import require_extra
 
-__all__ = [
-    "HelpFormatter",
-    "add_env_arguments",
-    "build_parser",
-    "env_kwargs_json",
-    "main",
-    "make_env",
-]
+__all__ = ["EXAMPLES", "build_parser", "main"]
 
 # Modules that define ``add_subcommands(subparsers)``: the extra their subcommands need, and the
 # subcommands they add (listed here so that they show, and explain themselves, without the extra).
 _SUBCOMMAND_MODULES: tuple[tuple[str, str | None, tuple[str, ...]], ...] = (
-    ("policies.teleop", None, ("teleop",)),
-    ("bubblerob_env.ros.cli", "ros", ("record", "info", "replay", "recover", "node")),
-    ("bubblerob_env.ros.detect", "ros", ("detect",)),
-    ("policies.bag_map", "ros", ("map",)),
-    ("bubblerob_env.ros.localize", "ros", ("localize",)),
-    ("policies.cli", "demo", ("evaluate", "demo")),
-    ("train.cli", "train", ("train",)),
+    ("bubblerob_cli.teleop", None, ("teleop",)),
+    ("bubblerob_cli.record", "ros", ("record", "info", "replay", "recover")),
+    ("bubblerob_cli.node", "ros", ("node",)),
+    ("bubblerob_cli.detect", "ros", ("detect",)),
+    ("bubblerob_cli.map", "ros", ("map",)),
+    ("bubblerob_cli.localize", "ros", ("localize",)),
+    ("bubblerob_cli.evaluate", "demo", ("evaluate", "demo")),
+    ("bubblerob_cli.train", "train", ("train",)),
 )
-_OWN_PACKAGES = ("bubblerob_env", "policies", "train")
+_OWN_PACKAGES = ("bubblerob_cli", "bubblerob_env", "policies", "train")
 
 EXAMPLES = {
     "demo": "bubblerob demo --episodes 3 --out demo_output",
@@ -54,85 +49,6 @@ EXAMPLES = {
     "localize": "bubblerob localize bags/bubblerob_laser_seed0 --global --json",
     "teleop": "bubblerob teleop --start-pose 0 0 0 --record bags/drive",
 }
-
-
-class HelpFormatter(argparse.HelpFormatter):
-    """``--help`` names each option's default and keeps indented example lines as they are."""
-
-    def _get_help_string(self, action: argparse.Action) -> str | None:
-        text = action.help or ""
-        default = action.default
-        if (
-            "default" in text
-            or default in (None, False, argparse.SUPPRESS)
-            or action.option_strings == []
-            or isinstance(default, list)
-            and not default
-        ):
-            return action.help
-        return f"{text} (default: %(default)s)"
-
-    def _fill_text(self, text: str, width: int, indent: str) -> str:
-        paragraphs = []
-        for line in text.splitlines():
-            if line.startswith(" "):
-                paragraphs.append(indent + line)  # an example command: not re-wrapped
-            else:
-                paragraphs.append(super()._fill_text(line, width, indent))
-        return "\n".join(paragraphs)
-
-
-def env_kwargs_json(text: str) -> dict[str, Any]:
-    """``--env-kwargs``: a JSON object of ``gym.make`` keyword arguments."""
-    import json
-
-    try:
-        value = json.loads(text)
-    except json.JSONDecodeError as error:
-        raise argparse.ArgumentTypeError(f"--env-kwargs must be a JSON object: {error}") from error
-    if not isinstance(value, dict):
-        raise argparse.ArgumentTypeError(f"--env-kwargs must be a JSON object, got {text}")
-    return value
-
-
-def add_env_arguments(parser: argparse.ArgumentParser) -> None:
-    """``--env ID`` and ``--env-kwargs JSON``, the env every env-making subcommand makes."""
-    parser.add_argument("--env", default="BubbleRob-v0", metavar="ID", help="env id for gym.make")
-    parser.add_argument(
-        "--env-kwargs",
-        type=env_kwargs_json,
-        default={},
-        metavar="JSON",
-        help="gym.make keyword arguments as a JSON object, e.g. '{\"arena_size\": 3.0}'",
-    )
-
-
-def make_env(command: str, env_id: str, env_kwargs: dict[str, Any], **fixed: Any) -> Any:
-    """``gym.make(env_id, **env_kwargs, **fixed)``; a bad id or kwarg is one line, exit 2."""
-    import gymnasium as gym
-
-    if "=" in env_id:  # the node's old `--env KEY=JSON`: an env id never holds '='
-        key, _, value = env_id.partition("=")
-        print(
-            f"bubblerob {command}: --env takes an env id such as PioneerP3DX-v0, got "
-            f"{env_id!r}; give keyword arguments as one JSON object: "
-            f"--env-kwargs '{{\"{key}\": {value}}}'",
-            file=sys.stderr,
-        )
-        raise SystemExit(2)
-    clash = sorted(key for key in fixed if key in env_kwargs and env_kwargs[key] != fixed[key])
-    if clash:
-        print(
-            f"bubblerob {command}: --env-kwargs cannot set {', '.join(clash)} here "
-            f"(it uses {', '.join(f'{key}={fixed[key]!r}' for key in clash)})",
-            file=sys.stderr,
-        )
-        raise SystemExit(2)
-    try:
-        return gym.make(env_id, **{**env_kwargs, **fixed})
-    except (gym.error.Error, TypeError, ValueError) as error:
-        print(f"bubblerob {command}: --env {env_id} --env-kwargs: {error}", file=sys.stderr)
-        raise SystemExit(2) from None
 
 
 def _version() -> str:

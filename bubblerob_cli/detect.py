@@ -1,0 +1,5 @@
+"""Placeholder during the house move (issue #35): replaced by the moved command code."""
+
+from bubblerob_env.ros.detect import add_subcommands
+
+__all__ = ["add_subcommands"]
