@@ -1,0 +1,1 @@
+"""Ray orchestration of the commands: ``--ray ADDRESS`` of evaluate, record and train."""
