@@ -22,11 +22,11 @@ from mujoco_warp._src.types import OverflowType, vec6
 from numpy.typing import NDArray
 
 from bubblerob_env import names
+from bubblerob_env.batch.common import checked_actions
 from bubblerob_env.core.kernel import CFG, ICFG, OUT, OUT_SIZE
 from bubblerob_env.env import BubbleRobEnv
 from bubblerob_env.mjwarp import kernels as K
 from bubblerob_env.mjwarp.layouts import LayoutTable, slot_geoms
-from bubblerob_env.vector import checked_actions
 
 __all__ = ["CONTACTS_PER_WORLD", "CONSTRAINTS_PER_WORLD", "DeviceWorlds", "HostCopy"]
 

@@ -31,18 +31,18 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numpy.typing import NDArray
 
+from bubblerob_env.batch.common import (
+    add_finals,
+    checked_autoreset_mode,
+    collate_infos,
+    reset_mask,
+    world_seeds,
+)
 from bubblerob_env.checks import check_bool, check_choice, check_int_range
 from bubblerob_env.env import BubbleRobEnv
 from bubblerob_env.infos import batched_step_info, robot_info, robot_step_info
 from bubblerob_env.mjwarp.device import DeviceWorlds, HostCopy
 from bubblerob_env.mjwarp.layouts import LayoutTable
-from bubblerob_env.vector import (
-    _seeds,
-    add_finals,
-    checked_autoreset_mode,
-    collate_infos,
-    reset_mask,
-)
 
 __all__ = ["OUTPUTS", "WarpVectorEnv"]
 
@@ -130,25 +130,25 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
         chosen, left = reset_mask(options, self.num_envs)
         if left:
             raise ValueError(f"options may hold only 'reset_mask', got {sorted(left)}")
-        seeds = _seeds(seed, self.num_envs)
+        seeds = world_seeds(seed, self.num_envs)
         base = seeds[0] if seeds[0] is not None else None
         if base is not None:
             self._bank_rng = np.random.default_rng(base)
         drawn = self._bank_rng.integers(2**31 - 1, size=self.num_envs)
-        world_seeds = np.array([drawn[i] if s is None else s for i, s in enumerate(seeds)])
+        resolved = np.array([drawn[i] if s is None else s for i, s in enumerate(seeds)])
         if self._bank is None or base is not None:
             start = int(base if base is not None else drawn[0]) + self.num_envs
             if self._bank is None or int(self._bank.seeds[0]) != start:  # kept across resets
                 seeds_ = range(start, start + self.layout_bank)
                 self._bank = LayoutTable(self._template, seeds_, self.device)
         rows = np.flatnonzero(chosen)
-        table = LayoutTable(self._template, world_seeds[rows].tolist(), self.device)
+        table = LayoutTable(self._template, resolved[rows].tolist(), self.device)
         table_rows = np.zeros(self.num_envs, dtype=np.int32)
         table_rows[rows] = np.arange(rows.size, dtype=np.int32)
-        self.worlds.noise_seeds(world_seeds, chosen)
+        self.worlds.noise_seeds(resolved, chosen)
         self.worlds.reset(chosen, table, table_rows)
         self.worlds.sense(active=chosen, resetting=chosen)
-        self.arena_seeds[rows] = world_seeds[rows]
+        self.arena_seeds[rows] = resolved[rows]
         self._autoreset[chosen] = False
         self._needs_reset = False
         host = self.worlds.fetch()
