@@ -69,6 +69,11 @@ def _missing_extra_stub(subparsers: Any, name: str, extra: str) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every subcommand."""
+    return _build()[0]
+
+
+def _build() -> tuple[argparse.ArgumentParser, dict[str, argparse.ArgumentParser]]:
+    """The parser, and each subcommand's own parser by name."""
     parser = argparse.ArgumentParser(
         prog="bubblerob",
         description="BubbleRob in MuJoCo: demo, evaluate, train, record, replay, live ROS node.",
@@ -98,28 +103,27 @@ def build_parser() -> argparse.ArgumentParser:
     for sub in subparsers.choices.values():
         if sub.get_default("extra") is None:
             sub.set_defaults(extra=None)
-    return parser
+    return parser, dict(subparsers.choices)
 
 
-def _extra_of(parser: argparse.ArgumentParser, command: str) -> str | None:
+def _extra_of(commands: dict[str, argparse.ArgumentParser], command: str) -> str | None:
     """The extra that ``command`` needs (None: none, or no such command)."""
-    for action in parser._actions:
-        if isinstance(action, argparse._SubParsersAction) and command in action.choices:
-            extra = action.choices[command].get_default("extra")
-            if extra is not None:
-                return str(extra)
+    if command in commands:
+        extra = commands[command].get_default("extra")
+        if extra is not None:
+            return str(extra)
     return next((e for _, e, names in _SUBCOMMAND_MODULES if command in names), None)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``bubblerob`` with ``argv`` (default: the process arguments)."""
     arguments = list(sys.argv[1:] if argv is None else argv)
-    parser = build_parser()
+    parser, commands = _build()
     # A missing extra is named before the command's own arguments are checked: a bare
     # 'bubblerob evaluate' without [demo] says to install it, not that --policy is missing.
     command = next((argument for argument in arguments if not argument.startswith("-")), None)
     if command is not None and not {"-h", "--help"} & set(arguments):
-        extra = _extra_of(parser, command)
+        extra = _extra_of(commands, command)
         if extra is not None:
             require_extra(extra, f"bubblerob {command}")
     args = parser.parse_args(arguments)
