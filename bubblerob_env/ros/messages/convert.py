@@ -108,7 +108,7 @@ class RosConverter(FrameValues):
         self.static_map_to_odom = True
         """Whether ``/tf_static`` has the identity ``map -> odom``; False where a localiser
         (``bubblerob node --localize``, as AMCL) publishes ``map -> odom`` on ``/tf``."""
-        self._init_values(specs)
+        super().__init__(specs)
 
     def frame_keys(self, stepped: bool) -> tuple[str, ...]:
         """Keys of the messages of a frame: after ``reset`` (``stepped=False``) or a ``step``."""

@@ -112,7 +112,8 @@ class FrameValues:
 
     specs: EnvSpecs
 
-    def _init_values(self, specs: EnvSpecs) -> None:
+    def __init__(self, specs: EnvSpecs) -> None:
+        """The value names of ``specs``' frames (a subclass calls it from its own ``__init__``)."""
         self.specs = specs
         self._odometry_noise = specs.odometry_noise > 0.0
         self._proximity_min = specs.proximity.range_min
