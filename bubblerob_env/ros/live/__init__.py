@@ -1,6 +1,7 @@
 """BubbleRob live on a ROS graph: the ``bubblerob node`` and the ``RosLivePublisher`` wrapper.
 
 - :mod:`~bubblerob_env.ros.live.backend`: what a ROS client library must offer; errors.
+- :mod:`~bubblerob_env.ros.live.connect`: ``load_backend``, starting the backend of ROS 1 or 2.
 - :mod:`~bubblerob_env.ros.live.ros1` (``rospy``), :mod:`~bubblerob_env.ros.live.ros2`
   (``rclpy``): the backends, publishing pre-serialised bytes.
 - :mod:`~bubblerob_env.ros.live.ros2_msgs`: builds ``tf2_msgs`` (no wheel) into a pip-installed
@@ -20,8 +21,8 @@ from bubblerob_env.ros.live.backend import (
     LiveBackend,
     MasterUnreachableError,
     RosUnavailableError,
-    load_backend,
 )
+from bubblerob_env.ros.live.connect import load_backend
 from bubblerob_env.ros.live.controls import ControlState
 from bubblerob_env.ros.live.node import NodeConfig, SimNode
 from bubblerob_env.ros.live.wrapper import RosLivePublisher

@@ -1,10 +1,11 @@
-"""What the live node needs from a ROS client library, and how a backend is chosen.
+"""What the live node needs from a ROS client library, and the errors of starting one.
 
 A backend publishes bytes that are already serialised for its distro (``ros1`` for ROS 1, CDR for
 ROS 2: the same bytes a bag of that distro holds) and hands received control messages over as
 raw bytes with the type the sender claimed, so that decoding and validation are shared
 (:mod:`~bubblerob_env.ros.live.controls`). :mod:`~bubblerob_env.ros.live.ros1` (``rospy``) and
-:mod:`~bubblerob_env.ros.live.ros2` (``rclpy``) implement it.
+:mod:`~bubblerob_env.ros.live.ros2` (``rclpy``) implement it;
+:func:`~bubblerob_env.ros.live.connect.load_backend` starts one.
 """
 
 from __future__ import annotations
@@ -19,7 +20,6 @@ __all__ = [
     "Publish",
     "RawCallback",
     "RosUnavailableError",
-    "load_backend",
 ]
 
 Publish = Callable[[bytes], None]
@@ -68,28 +68,3 @@ class LiveBackend(ABC):
     @abstractmethod
     def log(self, level: str, text: str) -> None:
         """Log ``text`` at ``level`` (``"info"`` or ``"warn"``) the middleware's way (rosout)."""
-
-
-def load_backend(
-    ros: int,
-    node_name: str = "bubblerob",
-    namespace: str = "",
-    anonymous: bool = False,
-    master_timeout: float = 3.0,
-) -> LiveBackend:
-    """Start a node with the client library of ROS ``ros`` (1: ``rospy``, 2: ``rclpy``).
-
-    Raises:
-        RosUnavailableError: The client library is not importable (says which package to install).
-        MasterUnreachableError: ROS 1 only: no master answered within ``master_timeout`` seconds.
-        ValueError: ``ros`` is neither 1 nor 2.
-    """
-    if ros == 1:
-        from bubblerob_env.ros.live.ros1 import Ros1Backend
-
-        return Ros1Backend(node_name, namespace, anonymous, master_timeout)
-    if ros == 2:
-        from bubblerob_env.ros.live.ros2 import Ros2Backend
-
-        return Ros2Backend(node_name, namespace)
-    raise ValueError(f"ros must be 1 or 2, got {ros!r}")

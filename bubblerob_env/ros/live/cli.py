@@ -167,7 +167,8 @@ def _node(args: argparse.Namespace) -> int:
     import bubblerob_env  # noqa: F401  (registers the envs)
     from bubblerob_env.mapping import check_resolution
     from bubblerob_env.ros.episodes import start_time_ns
-    from bubblerob_env.ros.live.backend import BackendError, load_backend
+    from bubblerob_env.ros.live.backend import BackendError
+    from bubblerob_env.ros.live.connect import load_backend
     from bubblerob_env.ros.live.controls import CONTROL_PRESETS
     from bubblerob_env.ros.live.node import NodeConfig, SimNode, shared_clock_ns
     from bubblerob_env.ros.messages.topics import topics_preset

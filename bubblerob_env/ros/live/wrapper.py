@@ -19,7 +19,8 @@ from bubblerob_env.mapping import DEFAULT_RESOLUTION
 from bubblerob_env.ros.bags.fanout import MessageFanout
 from bubblerob_env.ros.bags.sinks import BagSink
 from bubblerob_env.ros.episodes import EpisodeStream, jsonable, start_time_ns
-from bubblerob_env.ros.live.backend import LiveBackend, load_backend
+from bubblerob_env.ros.live.backend import LiveBackend
+from bubblerob_env.ros.live.connect import load_backend
 from bubblerob_env.ros.live.sink import LiveSink
 from bubblerob_env.ros.messages.topics import Topics
 from bubblerob_env.specs import EnvSpecs
