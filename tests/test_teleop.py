@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from teleop_terminal import screen_until, tmux
 
-from policies.teleop import TeleopState
+from bubblerob_cli.teleop.keys import TeleopState
 
 pytestmark = pytest.mark.skipif(shutil.which("tmux") is None, reason="needs tmux")
 

@@ -1,37 +1,9 @@
-"""``python -m bubblerob_env.mjwarp``: compile MuJoCo Warp's and the backend's kernels once.
+"""``python -m bubblerob_env.mjwarp [cpu|cuda:0]``: compile the Warp kernels (a command shim).
 
-Warp compiles kernels on first use (about 90 s on two CPU cores for the CPU device) and keeps
-them in its kernel cache (``~/.cache/warp``), where later runs load them in seconds. ``make
-test``'s set-up runs this, so that the tests do not pay the compile; on a GPU machine, pass the
-device (``cuda:0``) to compile its kernels too.
+The command is :mod:`bubblerob_cli.warp_kernels`.
 """
 
-from __future__ import annotations
-
-import sys
-import time
-
-import numpy as np
-import warp as wp
-
-from bubblerob_env.mjwarp import WarpVectorEnv
-
-
-def main(devices: list[str]) -> None:
-    """Two worlds per device through a reset and an autoreset; device outputs and actions."""
-    for device in devices:
-        started = time.perf_counter()
-        env = WarpVectorEnv(2, device=device, max_episode_steps=2, layout_bank=2)
-        env.reset(seed=0)
-        for _ in range(3):
-            env.step(np.zeros((2, 2), dtype=np.float32))
-        env.close()
-        flat = WarpVectorEnv(2, device=device, layout_bank=2, outputs="warp", obs_mode="flat")
-        flat.reset(seed=0)
-        flat.step(wp.zeros((2, 2), dtype=float, device=flat.device))
-        flat.close()
-        print(f"MuJoCo Warp kernels ready on {device} ({time.perf_counter() - started:.0f} s)")
-
+from bubblerob_cli.warp_kernels import main
 
 if __name__ == "__main__":
-    main(sys.argv[1:] or ["cpu"])
+    main()

@@ -102,11 +102,12 @@ TELEOP_LINK = """
 import json, sys, time
 from bubblerob_cli.main import build_parser
 from bubblerob_env.ros.messages.topics import topics_preset
-from policies.teleop import TeleopState, _ros_limits
-from policies.teleop_ros import RosLink
+from bubblerob_cli.teleop.cli import ros_limits
+from bubblerob_cli.teleop.keys import TeleopState
+from bubblerob_cli.teleop.ros import RosLink
 
 args = build_parser().parse_args(sys.argv[1:])
-link = RosLink(1, topics_preset(args.topics, args.namespace), *_ros_limits(args))
+link = RosLink(1, topics_preset(args.topics, args.namespace), *ros_limits(args))
 state = TeleopState()
 for key in b"www":  # 0.3 of the top speed forward, as the keys set it
     state.press(key)

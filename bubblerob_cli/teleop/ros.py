@@ -3,15 +3,15 @@
 Nothing is simulated here: a ROS node (``rospy`` for ROS 1, found as ``bubblerob node --ros 1``
 finds it; ``rclpy`` for ROS 2, from the ``.venv-ros2`` that runs ``bubblerob node --ros 2``)
 publishes ``geometry_msgs/Twist`` on the node's ``cmd_vel`` at the node's control rate, 20 Hz,
-as the keys set it (:class:`~policies.teleop.TeleopState`, fractions of the robot's limits, scaled
-to m/s and rad/s here). The status lines show what the node publishes: measured speed and pose
-(``/odom``), the nearest laser reading (``/scan``) and the collisions (``/terminated``). The
-messages are decoded with the ROS layer's own type stores (``bubblerob_env.ros.messages``).
+as the keys set it (:class:`~bubblerob_cli.teleop.keys.TeleopState`, fractions of the robot's
+limits, scaled to m/s and rad/s here). The status lines show what the node publishes: measured
+speed and pose (``/odom``), the nearest laser reading (``/scan``) and the collisions
+(``/terminated``). The messages are decoded with the ROS layer's own type stores
+(``bubblerob_env.ros.messages``).
 """
 
 from __future__ import annotations
 
-import curses
 import math
 import threading
 import time
@@ -19,12 +19,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from policies.teleop import TeleopState
+from bubblerob_cli.teleop.keys import Clock, TeleopState, start_screen, status_line
 
 if TYPE_CHECKING:
     from bubblerob_env.ros.messages.topics import Topics
 
-__all__ = ["RosLink", "run_ros_teleop"]
+__all__ = ["RATE_HZ", "RosLink", "run_ros_teleop"]
 
 RATE_HZ = 20.0
 """``cmd_vel`` messages per second (the node's control rate; its watchdog wants a steady flow)."""
@@ -43,7 +43,7 @@ class RosLink:
     """
 
     def __init__(self, ros: int, topics: Topics, max_linear: float, max_angular: float) -> None:
-        from bubblerob_env.ros.live.backend import load_backend
+        from bubblerob_env.ros.live.connect import load_backend
         from bubblerob_env.ros.messages.distros import deserialize, serialize, typestore
         from bubblerob_env.ros.messages.topics import MSGTYPES
 
@@ -105,10 +105,7 @@ class RosLink:
         """The two status lines: command, speed, nearest, collisions; pose."""
         with self._lock:
             pose, speed, nearest, collisions = self.pose, self.speed, self.nearest, self.collisions
-        first = (
-            f"cmd lin {state.linear:+.1f} ang {state.angular:+.1f} | speed {speed:+.2f} m/s "
-            f"| nearest {nearest:.2f} m | collisions {collisions}"
-        )
+        first = status_line(state, speed, nearest, collisions)
         if pose is None:
             return first, f"waiting for {self.odom_topic} from the node"
         return first, f"pose x={pose[0]:+.2f} y={pose[1]:+.2f} yaw={pose[2]:+.2f} (odom)"
@@ -124,14 +121,11 @@ class RosLink:
 
 def run_ros_teleop(screen: Any, link: RosLink, max_seconds: float | None = None) -> None:
     """Publish ``screen``'s keys as ``cmd_vel`` through ``link`` at :data:`RATE_HZ` until q."""
-    curses.curs_set(0)
-    screen.nodelay(True)
-    screen.keypad(True)
+    start_screen(screen)
     state = TeleopState()
-    started = next_tick = time.monotonic()
+    clock = Clock(1.0 / RATE_HZ, max_seconds)
     while not state.quit and link.backend.ok():
-        while (key := screen.getch()) != -1:
-            state.press(key)
+        state.read_keys(screen)
         if state.quit:
             break
         link.send(state)
@@ -143,11 +137,5 @@ def run_ros_teleop(screen: Any, link: RosLink, max_seconds: float | None = None)
         screen.addstr(1, 0, first[:width])
         screen.addstr(2, 0, second[:width])
         screen.refresh()
-        next_tick += 1.0 / RATE_HZ
-        delay = next_tick - time.monotonic()
-        if delay > 0:
-            time.sleep(delay)
-        else:
-            next_tick = time.monotonic()
-        if max_seconds is not None and time.monotonic() - started > max_seconds:
+        if not clock.wait():
             break

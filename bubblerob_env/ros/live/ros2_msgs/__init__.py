@@ -22,11 +22,12 @@ which the node does not use). The type hash is rosidl's, so the DDS type name
 Run it with the environment's interpreter (needs ``gcc``/``g++`` and Python's headers)::
 
     .venv-ros2/bin/python -m bubblerob_env.ros.live.ros2_msgs
+
+(the command is :mod:`bubblerob_cli.ros2_msgs`; this package is the library it calls).
 """
 
 from __future__ import annotations
 
-import argparse
 import logging
 import os
 import shutil
@@ -37,7 +38,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-__all__ = ["PACKAGES", "build_package", "main"]
+__all__ = ["MSG_DIR", "PACKAGES", "TYPESUPPORTS", "build_package"]
 
 PACKAGES: dict[str, dict[str, Any]] = {
     "tf2_msgs": {
@@ -59,7 +60,7 @@ PACKAGES: dict[str, dict[str, Any]] = {
     },
 }
 """Packages this module can build: their messages and the message packages they depend on."""
-MSG_DIR = Path(__file__).resolve().parent.parent / "messages" / "msg"
+MSG_DIR = Path(__file__).resolve().parents[2] / "messages" / "msg"
 """Where the genuine ``.msg`` files are (shared with the ROS 1 definitions: identical here)."""
 TYPESUPPORTS = ("rosidl_typesupport_fastrtps_c", "rosidl_typesupport_introspection_c")
 
@@ -257,29 +258,3 @@ def build_package(package: str = "tf2_msgs", prefix: Path | None = None) -> Path
             (index / kind).mkdir(parents=True, exist_ok=True)
             (index / kind / package).write_text(text)
     return target
-
-
-def main(argv: list[str] | None = None) -> int:
-    """``python -m bubblerob_env.ros.live.ros2_msgs [PACKAGE ...] [--prefix DIR]``."""
-    parser = argparse.ArgumentParser(
-        prog="python -m bubblerob_env.ros.live.ros2_msgs",
-        description="Generate and build ROS 2 message packages that have no wheel "
-        "(tf2_msgs) into this Python environment's ROS 2.",
-    )
-    parser.add_argument("packages", nargs="*", help=f"default: {' '.join(sorted(PACKAGES))}")
-    parser.add_argument("--prefix", type=Path, default=None, help="default: sys.prefix")
-    args = parser.parse_args(argv)
-    for package in args.packages or sorted(PACKAGES):
-        if package not in PACKAGES:
-            parser.error(f"no recipe for {package!r}; known: {', '.join(sorted(PACKAGES))}")
-        try:
-            target = build_package(package, args.prefix)
-        except RuntimeError as error:
-            print(f"ros2_msgs: {error}", file=sys.stderr)
-            return 1
-        print(f"ros2_msgs: built {package} into {target}")
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())
