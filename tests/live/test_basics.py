@@ -18,8 +18,8 @@ from live_helpers import free_port, requires_ros
 from bubblerob_env.kinematics import DiffDrive
 from bubblerob_env.ros.live import ControlState, MasterUnreachableError, RosUnavailableError
 from bubblerob_env.ros.live import ros1 as ros1_backend
-from bubblerob_env.ros.live.cli import LAUNCH_DIR
 from bubblerob_env.ros.live.controls import ControlError, decode_control
+from bubblerob_env.ros.live.node import LAUNCH_DIR
 from bubblerob_env.ros.live.ros1 import check_master, ros1_msgdef
 
 DRIVE = DiffDrive(0.04, 0.18, 10.0)

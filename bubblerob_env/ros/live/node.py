@@ -18,6 +18,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
@@ -36,7 +37,10 @@ from bubblerob_env.ros.live.wrapper import RosLivePublisher
 from bubblerob_env.ros.messages.distros import deserialize, get_distro, serialize, typestore
 from bubblerob_env.ros.messages.topics import Topics
 
-__all__ = ["STOPPED", "RUNNING", "PAUSED", "NodeConfig", "SimNode"]
+__all__ = ["LAUNCH_DIR", "STOPPED", "RUNNING", "PAUSED", "NodeConfig", "SimNode", "shared_clock_ns"]
+
+LAUNCH_DIR = Path(__file__).resolve().parent.parent / "launch"
+"""``bubblerob.launch``, ``bubblerob.rviz`` and ``package.xml`` (a ROS 1 package, ``bubblerob``)."""
 
 STOPPED, RUNNING, PAUSED = 0, 1, 2
 """Values of ``simulationState`` (``std_msgs/Int32``), as CoppeliaSim publishes them."""
