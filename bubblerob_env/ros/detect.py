@@ -1,4 +1,4 @@
-"""``bubblerob detect BAG``: the recogniser over a recorded bag's images, scored against the truth.
+"""The recogniser over a recorded bag's images, scored against the truth (``bubblerob detect BAG``).
 
 The recogniser (:class:`~bubblerob_env.vision.recognise.Recogniser`) runs on every image the bag
 holds (``/camera/image_raw``, as recorded). The ground truth of each image comes from the episode
@@ -16,9 +16,6 @@ pose is exact) and counted in ``images_rendered_differently``.
 
 from __future__ import annotations
 
-import argparse
-import json
-import sys
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
-from bubblerob_env.ros.messages.topics import MSGTYPES, Topics
+from bubblerob_env.ros.messages.topics import Topics
 from bubblerob_env.ros.readback.episode_env import make_episode_env
 from bubblerob_env.ros.readback.layout import bag_root
 from bubblerob_env.ros.readback.summary import find_episodes, open_reader
@@ -37,7 +34,7 @@ from bubblerob_env.vision.ground_truth import GroundTruthCamera, label_segmentat
 from bubblerob_env.vision.recognise import Recogniser
 from bubblerob_env.vision.scoring import Score
 
-__all__ = ["DetectError", "DetectReport", "add_subcommands", "detect_bag"]
+__all__ = ["DetectError", "DetectReport", "detect_bag"]
 
 
 class DetectError(RuntimeError):
@@ -170,29 +167,3 @@ def detect_bag(path: str | Path, min_pixels: int = 50) -> DetectReport:
                 env.close()
             report.episodes += 1
     return report
-
-
-def add_subcommands(subparsers: Any) -> None:
-    """Add ``detect`` to the ``bubblerob`` command."""
-    parser = subparsers.add_parser(
-        "detect",
-        help="score the obstacle recogniser on a recorded bag's camera images",
-        description="Run the recogniser over every camera image of a bag and score it "
-        "against the ground truth of the same frames, re-simulated from the episodes' metadata: "
-        "precision, recall, class accuracy and bearing error over objects of >= 50 pixels. "
-        f"The bag needs the camera ({MSGTYPES['image']}); obstacles are recognisable when "
-        "the env paints them (--env-kwargs '{\"obstacle_colours\": true}' when recording).",
-    )
-    parser.add_argument("bag", help="the bag: a ROS 1 .bag or a ROS 2 bag folder")
-    parser.add_argument("--json", action="store_true", help="print one JSON object")
-    parser.set_defaults(handler=_detect)
-
-
-def _detect(args: argparse.Namespace) -> int:
-    try:
-        report = detect_bag(args.bag)
-    except (DetectError, OSError) as error:
-        print(f"bubblerob detect: {error}", file=sys.stderr)
-        return 2
-    print(json.dumps(report.to_dict(), sort_keys=True) if args.json else report)
-    return 0
