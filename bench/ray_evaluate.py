@@ -50,7 +50,8 @@ def measure(
 
     import gymnasium as gym
 
-    from policies.distributed import LOCAL, evaluate_on_ray, ray_session
+    from bubblerob_cli.ray.evaluate import evaluate_on_ray
+    from bubblerob_cli.ray.session import LOCAL, ray_session
     from policies.evaluation import run_episode
     from policies.loading import load_policy
 

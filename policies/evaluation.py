@@ -21,6 +21,7 @@ __all__ = [
     "DEFAULT_EVAL_SEED",
     "EpisodeStats",
     "EvalResult",
+    "FfmpegNotFoundError",
     "VideoWriter",
     "evaluate",
     "format_table",
@@ -274,14 +275,24 @@ _GIF_FILTER = (
 _H264_OPTIONS = ("-c:v", "libx264", "-preset", "ultrafast", "-tune", "animation", "-crf", "30")
 
 
+class FfmpegNotFoundError(RuntimeError):
+    """No ffmpeg to write a video with: imageio-ffmpeg is not installed, none is on the PATH.
+
+    Its message is one line that says what to install (the commands print it and exit 1).
+    """
+
+
 def ffmpeg_executable() -> str:
-    """imageio-ffmpeg's ffmpeg if that package is installed, else ``ffmpeg`` on the PATH."""
+    """imageio-ffmpeg's ffmpeg if that package is installed, else ``ffmpeg`` on the PATH.
+
+    Raises :class:`FfmpegNotFoundError` when there is neither.
+    """
     try:
         import imageio_ffmpeg
     except ModuleNotFoundError:
         found = shutil.which("ffmpeg")
         if found is None:
-            raise SystemExit(
+            raise FfmpegNotFoundError(
                 "writing a video needs ffmpeg: apt-get install ffmpeg (or pip install "
                 "imageio-ffmpeg); --no-video skips the video"
             ) from None

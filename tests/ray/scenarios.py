@@ -26,7 +26,7 @@ import psutil
 import ray
 
 from bubblerob_cli.main import main as bubblerob
-from policies.distributed import evaluate_on_ray
+from bubblerob_cli.ray.evaluate import evaluate_on_ray
 
 EVAL_POLICIES = ["reactive", "laser", "ppo", "random"]
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 from hypothesis import given
 from hypothesis import strategies as st
 
-from policies.distributed import MAX_CHUNK, plan_chunks
+from bubblerob_cli.ray.chunks import MAX_CHUNK, plan_chunks
 
 
 @given(

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from bubblerob_cli import main as cli
-from bubblerob_env.ros import cli as ros_cli
+from bubblerob_cli import record as ros_cli
 
 
 class Forward:

@@ -18,18 +18,17 @@ from decimal import Decimal
 from pathlib import Path
 from typing import Any
 
-from policies.distributed import (
+from bubblerob_cli.ray.chunks import ONE_STREAM_POLICIES, plan_chunks
+from bubblerob_cli.ray.session import (
     LOCAL,
-    ONE_STREAM_POLICIES,
     TASK_RETRIES,
     check_address,
     command_errors,
     gather,
-    plan_chunks,
     ray_session,
 )
 
-__all__ = ["RecordChunk", "record_chunk", "record_command", "record_on_ray"]
+__all__ = ["RecordChunk", "chunk_bag_name", "record_chunk", "record_command", "record_on_ray"]
 
 
 @dataclass(frozen=True)
@@ -109,12 +108,6 @@ def _recorder_kwargs(args: Any) -> dict[str, Any]:
     }
 
 
-def _env_kwargs(args: Any) -> dict[str, Any]:
-    from bubblerob_env.ros.cli import record_env_kwargs
-
-    return record_env_kwargs(args)
-
-
 def _check_targets(out: Path, names: list[str], fmt: str, overwrite: bool) -> None:
     """Fail before any task on an existing bag (without --overwrite) or an unwritable folder."""
     from bubblerob_env.ros.bags.sinks import bag_path
@@ -140,11 +133,16 @@ def _plan(args: Any, chunk_size: int | None, cpus: float) -> list[range]:
 
 
 def record_on_ray(
-    args: Any, *, chunk_size: int | None = None, num_cpus: int | None = None
+    args: Any,
+    env_kwargs: dict[str, Any],
+    *,
+    chunk_size: int | None = None,
+    num_cpus: int | None = None,
 ) -> list[RecordChunk]:
     """Record ``args.episodes`` episodes from ``args.seed`` as Ray tasks; the chunks, in order.
 
-    ``args`` are ``bubblerob record``'s parsed arguments (``args.ray`` the address).
+    ``args`` are ``bubblerob record``'s parsed arguments (``args.ray`` the address), and
+    ``env_kwargs`` the ``gym.make`` kwargs they give (``record_env_kwargs``).
     """
     from tqdm import tqdm
 
@@ -162,7 +160,7 @@ def record_on_ray(
                 args.policy,
                 list(chunk),
                 str(args.out / name),
-                _env_kwargs(args),
+                dict(env_kwargs),
                 recorder_kwargs,
                 topics,
                 args.env,
@@ -178,19 +176,22 @@ def record_on_ray(
     return done
 
 
-def _check_policy(args: Any) -> None:
+def _check_policy(args: Any, env_kwargs: dict[str, Any]) -> None:
     from bubblerob_cli.args import make_env
     from policies.loading import load_policy
 
-    env = make_env("record", args.env, _env_kwargs(args))
+    env = make_env("record", args.env, dict(env_kwargs))
     try:
         load_policy(args.policy, env=env, seed=args.seed)
     finally:
         env.close()
 
 
-def record_command(args: Any) -> int:
-    """``bubblerob record --ray ADDRESS`` (its other arguments checked by the caller)."""
+def record_command(args: Any, env_kwargs: dict[str, Any]) -> int:
+    """``bubblerob record --ray ADDRESS`` (its other arguments checked by the caller).
+
+    ``env_kwargs``: the ``gym.make`` kwargs of ``args`` (``record_env_kwargs``).
+    """
     from bubblerob_env.extras import require_extra
 
     require_extra("ray", "bubblerob record --ray")
@@ -198,10 +199,10 @@ def record_command(args: Any) -> int:
     with command_errors("record", unfinished):
         check_address(args.ray)
         try:
-            _check_policy(args)
+            _check_policy(args, env_kwargs)
         except TypeError as error:
             raise ValueError(str(error)) from None
-        done = record_on_ray(args)
+        done = record_on_ray(args, env_kwargs)
     steps = sum(chunk.steps for chunk in done)
     bags = sum(len(chunk.bags) for chunk in done)
     nodes = len({chunk.node_id for chunk in done})

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import shlex
 import sys
 from dataclasses import dataclass
@@ -10,10 +11,13 @@ from typing import Any
 
 import gymnasium as gym
 
+from bubblerob_cli.args import add_env_arguments
+from bubblerob_cli.policy_checks import check_episode_arguments, check_policies
 from bubblerob_env.wrappers import TopDownView
 from policies.evaluation import (
     DEFAULT_EVAL_SEED,
     EvalResult,
+    FfmpegNotFoundError,
     VideoWriter,
     format_table,
     run_episode,
@@ -22,7 +26,26 @@ from policies.evaluation import (
 )
 from policies.loading import load_policy
 
-__all__ = ["DemoResult", "run_demo"]
+__all__ = ["DemoResult", "add_demo_subcommand", "run_demo"]
+
+
+def add_demo_subcommand(subparsers: Any) -> None:
+    """Register ``demo``."""
+    demo = subparsers.add_parser(
+        "demo",
+        help="drive with the shipped policy: table, MCAP bag and video",
+        description="Run a policy (default: the shipped PPO) for a few episodes, print its "
+        "evaluation table, record the episodes as an MCAP bag and write a video.",
+    )
+    demo.add_argument(
+        "--policy", default="ppo", help="ppo, laser, reactive, random, an .onnx or an SB3 .zip"
+    )
+    demo.add_argument("--episodes", type=int, default=3, help="episodes to drive and record")
+    demo.add_argument("--seed", type=int, default=DEFAULT_EVAL_SEED, help="first episode seed")
+    demo.add_argument("--out", type=Path, default=Path("demo_output"), help="output folder")
+    demo.add_argument("--no-video", action="store_true", help="skip the video")
+    add_env_arguments(demo)
+    demo.set_defaults(handler=_run_demo)
 
 
 @dataclass(frozen=True)
@@ -85,17 +108,28 @@ def run_demo(
     return DemoResult(summarize(str(policy_name), stats), recorder.bag_paths[0], video_path)
 
 
-def main_demo(
-    policy: str,
-    episodes: int,
-    seed: int,
-    out: Path,
-    video: bool,
-    env_id: str = "BubbleRob-v0",
-    env_kwargs: dict[str, Any] | None = None,
-) -> int:
+def _run_demo(args: argparse.Namespace) -> int:
+    check_episode_arguments("demo", args)
+    check_policies("demo", [args.policy], args.env, args.env_kwargs)
+    try:
+        return _demo_and_report(args)
+    except OSError as error:  # an unwritable --out: the recorder or the video says where
+        raise SystemExit(f"bubblerob demo: {error}") from None
+    except FfmpegNotFoundError as error:  # one line: what to install
+        raise SystemExit(str(error)) from None
+
+
+def _demo_and_report(args: argparse.Namespace) -> int:
     """Run the demo and say where its outputs are."""
-    demo = run_demo(policy, episodes, seed, out, video, env_id=env_id, env_kwargs=env_kwargs)
+    demo = run_demo(
+        args.policy,
+        args.episodes,
+        args.seed,
+        args.out,
+        not args.no_video,
+        env_id=args.env,
+        env_kwargs=args.env_kwargs,
+    )
     print(format_table([demo.result]))
     print(f"bag:   {demo.bag}  (bubblerob info {demo.bag}; open in Foxglove or rosbags)")
     if demo.video is not None:
