@@ -1,5 +1,72 @@
-"""Placeholder during the house move (issue #35): replaced by the moved command code."""
+"""``bubblerob map BAG``: a bag's scans mapped beside the truth (library: ``ros.map_bag``)."""
 
-from policies.bag_map import add_subcommands
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from bubblerob_cli.args import env_kwargs_json
+from bubblerob_cli.errors import report
+from bubblerob_env.mapping import DEFAULT_RESOLUTION, check_resolution
+from bubblerob_env.ros.map_bag import MapError, map_bag, map_png
 
 __all__ = ["add_subcommands"]
+
+
+def add_subcommands(subparsers: Any) -> None:
+    """Add ``map`` to the ``bubblerob`` command."""
+    parser = subparsers.add_parser(
+        "map",
+        help="occupancy grid from a bag's /scan and /tf, beside the ground truth, with the IoU",
+        description="Build an occupancy grid from a recorded bag's /scan and /tf (log odds), "
+        "write a PNG of it beside the episode's ground-truth grid and print the IoU of the "
+        "occupied cells over the cells the scans observed (and over all cells).",
+    )
+    parser.add_argument("bag", help="the bag (ROS 1 .bag file or ROS 2 directory)")
+    parser.add_argument("--episode", type=int, default=0, help="index of the episode to map")
+    parser.add_argument("--resolution", default=DEFAULT_RESOLUTION, help="m/cell, 0.005 to 1")
+    parser.add_argument("--out", default="map.png", help="PNG to write")
+    parser.add_argument(
+        "--env",
+        metavar="ID",
+        help="where the ground truth is re-simulated (the bag has no /map at --resolution): "
+        "make this env id instead of the one the episode's metadata names",
+    )
+    parser.add_argument(
+        "--env-kwargs",
+        type=env_kwargs_json,
+        metavar="JSON",
+        help="with the re-simulation: these gym.make keyword arguments instead of the "
+        "metadata's, e.g. '{\"arena_size\": 3.0}'",
+    )
+    parser.set_defaults(handler=_run)
+
+
+def _run(args: argparse.Namespace) -> int:
+    try:
+        resolution = check_resolution(args.resolution)
+        if args.episode < 0:
+            raise MapError(f"--episode must be an episode index >= 0, got {args.episode}")
+        if Path(args.out).is_dir():
+            raise MapError(f"--out {args.out} is a directory: name the PNG file to write")
+    except ValueError as error:
+        report("map", str(error))
+        return 2
+    try:
+        result = map_bag(args.bag, args.episode, resolution, args.env, args.env_kwargs)
+    except (OSError, MapError) as error:
+        report("map", str(error))
+        return 2
+    try:
+        out = map_png(result, args.out)
+    except (OSError, ValueError) as error:  # imageio: ValueError for an unknown extension
+        reason = error.strerror if isinstance(error, OSError) and error.strerror else error
+        report("map", f"cannot write --out {args.out}: {reason}")
+        return 1
+    print(f"ground truth: {result.truth_source}")
+    print(f"scans: {result.scans}")
+    print(f"IoU of occupied cells (observed cells): {result.iou:.3f}")
+    print(f"IoU of occupied cells (all cells): {result.iou_all:.3f}")
+    print(f"wrote {out} (mapped left, ground truth right)")
+    return 0

@@ -100,7 +100,7 @@ def test_map_of_a_bag_without_map_re_simulates_the_episode(tmp_path):
     pytest.importorskip("rosbags")
     from bubblerob_env.ros import RosBagRecorder
     from bubblerob_env.ros.messages.topics import Topics
-    from policies.bag_map import map_bag
+    from bubblerob_env.ros.map_bag import map_bag
 
     for name, topics in (("with", Topics()), ("without", Topics(map=None))):
         env = gym.make("BubbleRob-v0", max_episode_steps=20)
@@ -123,7 +123,7 @@ def test_map_re_simulates_with_the_env_the_user_names(tmp_path, capsys):
     pytest.importorskip("rosbags")
     from bubblerob_env.ros import RosBagRecorder
     from bubblerob_env.ros.messages.topics import Topics
-    from policies.bag_map import map_bag
+    from bubblerob_env.ros.map_bag import map_bag
 
     env = gym.make("BubbleRob-v0", arena_size=3.0, max_episode_steps=5)
     with RosBagRecorder(env, tmp_path / "bag", topics=Topics(map=None)) as recorder:

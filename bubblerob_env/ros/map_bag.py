@@ -1,4 +1,4 @@
-"""``bubblerob map BAG``: an occupancy grid from a recorded bag's ``/scan`` and ``/tf``.
+"""An occupancy grid from a recorded bag's ``/scan`` and ``/tf`` (``bubblerob map BAG``).
 
 The scans are placed with ``odom -> base_link`` from ``/tf`` and ``base_link -> laser_link`` from
 ``/tf_static`` and folded into a :class:`~bubblerob_env.mapping.LogOddsMapper`. The ground truth
@@ -13,29 +13,27 @@ occupied): the insides of obstacles and walls are never seen by a laser, so they
 
 from __future__ import annotations
 
-import argparse
 import math
-import sys
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from bubblerob_cli.args import env_kwargs_json
 from bubblerob_env.mapping import (
     DEFAULT_RESOLUTION,
     OCCUPIED,
     UNKNOWN,
     Grid,
     LogOddsMapper,
-    check_resolution,
     episode_grid,
     occupied_iou,
 )
 from bubblerob_env.png import write_png  # stdlib zlib: the [ros] extra brings no image library
+from bubblerob_env.ros.readback.episode_env import make_episode_env
+from bubblerob_env.ros.readback.summary import bag_root, find_episodes, open_reader
 
-__all__ = ["MapError", "MapResult", "add_subcommands", "map_bag", "map_png"]
+__all__ = ["MapError", "MapResult", "map_bag", "map_png"]
 
 
 class MapError(ValueError):
@@ -92,8 +90,6 @@ def map_bag(
             does not make an env.
         OSError: Not a bag, or a damaged one (``CorruptBagError``).
     """
-    from bubblerob_env.ros.readback.summary import bag_root, find_episodes, open_reader
-
     with open_reader(bag_root(path)) as reader:
         _, episodes = find_episodes(reader)
         _check_episode(path, episode, len(episodes))
@@ -165,8 +161,6 @@ def _simulated(
     env_kwargs: dict[str, Any] | None = None,
 ) -> Grid:
     """The ground truth of the episode ``meta`` describes, from its env re-created and reset."""
-    from bubblerob_env.ros.readback.episode_env import make_episode_env
-
     try:
         env = make_episode_env(meta, MapError, env_id, env_kwargs)
     except MapError as error:
@@ -195,61 +189,3 @@ def map_png(result: MapResult, out: str | Path, scale: int = 4) -> Path:
     out.parent.mkdir(parents=True, exist_ok=True)
     write_png(out, picture)
     return out
-
-
-def _run(args: argparse.Namespace) -> int:
-    try:
-        resolution = check_resolution(args.resolution)
-        if args.episode < 0:
-            raise MapError(f"--episode must be an episode index >= 0, got {args.episode}")
-        if Path(args.out).is_dir():
-            raise MapError(f"--out {args.out} is a directory: name the PNG file to write")
-    except ValueError as error:
-        print(f"bubblerob map: {error}", file=sys.stderr)
-        return 2
-    try:
-        result = map_bag(args.bag, args.episode, resolution, args.env, args.env_kwargs)
-    except (OSError, MapError) as error:
-        print(f"bubblerob map: {error}", file=sys.stderr)
-        return 2
-    try:
-        out = map_png(result, args.out)
-    except (OSError, ValueError) as error:  # imageio: ValueError for an unknown extension
-        reason = error.strerror if isinstance(error, OSError) and error.strerror else error
-        print(f"bubblerob map: cannot write --out {args.out}: {reason}", file=sys.stderr)
-        return 1
-    print(f"ground truth: {result.truth_source}")
-    print(f"scans: {result.scans}")
-    print(f"IoU of occupied cells (observed cells): {result.iou:.3f}")
-    print(f"IoU of occupied cells (all cells): {result.iou_all:.3f}")
-    print(f"wrote {out} (mapped left, ground truth right)")
-    return 0
-
-
-def add_subcommands(subparsers: Any) -> None:
-    """Add ``map`` to the ``bubblerob`` command."""
-    parser = subparsers.add_parser(
-        "map",
-        help="occupancy grid from a bag's /scan and /tf, beside the ground truth, with the IoU",
-        description="Build an occupancy grid from a recorded bag's /scan and /tf (log odds), "
-        "write a PNG of it beside the episode's ground-truth grid and print the IoU of the "
-        "occupied cells over the cells the scans observed (and over all cells).",
-    )
-    parser.add_argument("bag", help="the bag (ROS 1 .bag file or ROS 2 directory)")
-    parser.add_argument("--episode", type=int, default=0, help="index of the episode to map")
-    parser.add_argument("--resolution", default=DEFAULT_RESOLUTION, help="m/cell, 0.005 to 1")
-    parser.add_argument("--out", default="map.png", help="PNG to write")
-    parser.add_argument(
-        "--env",
-        metavar="ID",
-        help="where the ground truth is re-simulated (the bag has no /map at --resolution): "
-        "make this env id instead of the one the episode's metadata names",
-    )
-    parser.add_argument(
-        "--env-kwargs",
-        type=env_kwargs_json,
-        metavar="JSON",
-        help="with the re-simulation: these gym.make keyword arguments instead of the "
-        "metadata's, e.g. '{\"arena_size\": 3.0}'",
-    )
-    parser.set_defaults(handler=_run)
