@@ -32,6 +32,11 @@ MAX_SEED = 2**63 - 1
 
 def add_subcommands(subparsers: Any) -> None:
     """Add ``record``, ``info``, ``replay`` and ``recover`` to the ``bubblerob`` command."""
+    _add_record(subparsers)
+    _add_bag_readers(subparsers)
+
+
+def _add_record(subparsers: Any) -> None:
     record = subparsers.add_parser(
         "record",
         help="run a policy and record its episodes as a ROS bag",
@@ -85,6 +90,9 @@ def add_subcommands(subparsers: Any) -> None:
     record.add_argument("--out", type=Path, required=True, help="directory for the bag")
     record.set_defaults(handler=_record)
 
+
+def _add_bag_readers(subparsers: Any) -> None:
+    """``info``, ``replay`` and ``recover``: each reads a bag."""
     info = subparsers.add_parser(
         "info", help="show a bag's topics, counts, duration and episodes", description=None
     )
