@@ -2,8 +2,8 @@
 
 While at least one bag is open (:func:`register`):
 
-- ``SIGTERM`` raises ``SystemExit(143)`` instead of killing the process outright, so that
-  ``finally`` blocks and ``atexit`` hooks run (only where ``SIGTERM`` had its default action);
+- ``SIGTERM`` raises :class:`Terminated` (status 143) instead of killing the process outright, so
+  that ``finally`` blocks and ``atexit`` hooks run (only where ``SIGTERM`` had its default action);
 - ``SIGINT`` (Ctrl-C) raises ``KeyboardInterrupt`` as usual;
 - both are *deferred* while a :func:`critical` block runs (writing one frame, finishing a file),
   and raised when it ends, so that a bag never holds half a step or half an index; a second
@@ -26,7 +26,22 @@ from collections.abc import Callable
 from types import FrameType, TracebackType
 from typing import Any
 
-__all__ = ["critical", "register", "unregister"]
+__all__ = ["Terminated", "critical", "register", "unregister"]
+
+
+class Terminated(SystemExit):
+    """A signal (``SIGTERM``) ended the process while a bag was open; ``code`` is 128 + signum.
+
+    Raised in place of the signal's default action, which would end the process without running
+    ``finally`` blocks or ``atexit`` hooks. It is a ``SystemExit``, so that a script that records
+    and is terminated still ends quietly with the status a shell reports for the signal (143), as
+    it would without a bag open; a command may catch it to say more.
+    """
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(128 + signum)
+        self.signum = signum
+
 
 _closers: dict[int, Callable[[], None]] = {}
 _previous: dict[int, Any] = {}
@@ -39,7 +54,7 @@ _atexit_registered = False
 def _raise_for(signum: int) -> None:
     if signum == signal.SIGINT:
         raise KeyboardInterrupt
-    raise SystemExit(128 + signum)
+    raise Terminated(signum)
 
 
 def _handler(signum: int, frame: FrameType | None) -> None:
