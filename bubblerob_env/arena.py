@@ -190,6 +190,11 @@ class ObstacleSlots:
         """Every slot's geom id."""
         return [gid for slots in self._free.values() for gid, _, _ in slots]
 
+    @property
+    def slots(self) -> list[tuple[int, int, int]]:
+        """Every slot's geom id, mocap id and BVH node, cylinders first, as ``geom_ids``."""
+        return [slot for slots in self._free.values() for slot in slots]
+
     def apply(
         self, model: mujoco.MjModel, data: mujoco.MjData, obstacles: tuple[Obstacle, ...]
     ) -> None:

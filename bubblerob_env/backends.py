@@ -1,6 +1,6 @@
 """The native batch's backends: ``gym.make_vec(..., vectorization_mode="vector_entry_point")``.
 
-``backend="cpu"`` (the default) is :class:`~bubblerob_env.vector.BubbleRobVectorEnv`, bit for bit
+``backend="cpu"`` (the default) is :class:`~bubblerob_env.batch.cpu.BubbleRobVectorEnv`, bit for bit
 the single env; ``backend="warp"`` is :class:`~bubblerob_env.mjwarp.WarpVectorEnv`, MuJoCo Warp
 on a GPU (or Warp's CPU device), from the ``[warp]`` extra.
 """
@@ -12,8 +12,8 @@ from typing import Any
 
 from gymnasium.vector import VectorEnv
 
+from bubblerob_env.batch.cpu import BubbleRobVectorEnv
 from bubblerob_env.checks import check_choice
-from bubblerob_env.vector import BubbleRobVectorEnv
 
 __all__ = ["BACKENDS", "make_vector_env"]
 

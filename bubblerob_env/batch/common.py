@@ -1,22 +1,32 @@
-"""The vector protocol both batch backends share.
+"""The vector protocol both batch backends share, and the observation, built in one place.
 
 The CPU batch (:mod:`bubblerob_env.batch.cpu`) and the warp batch (:mod:`bubblerob_env.mjwarp`)
-use the same seeds, reset masks, action and autoreset-mode checks, Gymnasium's batched ``info``
-(``collate_infos``, ``add_finals``) and the batched observation's rows.
+use the same seeds, reset masks, action and autoreset-mode checks and Gymnasium's batched
+``info`` (``collate_infos``, ``add_finals``). :class:`ObservationFormat` gives the observation
+spaces and assembles observations from the readings, for the single env (one robot's) and both
+batches (every robot's rows) alike; :func:`checked_action` is the single env's action check.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from gymnasium import spaces
 from gymnasium.vector import AutoresetMode
 from numpy.typing import NDArray
 
+if TYPE_CHECKING:
+    from bubblerob_env.scene import Scene
+
 __all__ = [
     "BatchObs",
+    "Observation",
+    "ObservationFormat",
     "add_finals",
+    "checked_action",
     "checked_actions",
     "checked_autoreset_mode",
     "collate_infos",
@@ -25,8 +35,70 @@ __all__ = [
     "world_seeds",
 ]
 
+Observation = dict[str, NDArray[Any]] | NDArray[np.float32]
+"""A ``Dict`` observation (``obs_mode="dict"``) or a flat one (``obs_mode="flat"``)."""
 BatchObs = dict[str, NDArray[Any]] | NDArray[np.float32]
 """Batched observations: a dict of arrays (``obs_mode="dict"``) or one array (``"flat"``)."""
+
+
+class ObservationFormat:
+    """The observation of a scene's robot: its spaces, and how readings become one.
+
+    ``dict_space`` is the ``Dict`` space whatever ``obs_mode`` is; ``space`` is the env's
+    ``observation_space`` (the ``Dict``, or for ``obs_mode="flat"`` one float32 ``Box`` of the
+    laser, proximity and velocity readings in that order, ``layout`` naming each one's slice).
+    """
+
+    def __init__(self, scene: Scene) -> None:
+        velocity_limit = scene.limits.velocity_limit.astype(np.float32)
+        obs_spaces: dict[str, spaces.Space[Any]] = {}
+        laser = scene.laser_spec
+        if laser is not None:
+            obs_spaces["laser"] = spaces.Box(0.0, laser.range_max, (laser.num_rays,), np.float32)
+        proximity_max = scene.proximity_spec.range_max
+        obs_spaces["proximity"] = spaces.Box(0.0, proximity_max, (1,), np.float32)
+        obs_spaces["velocity"] = spaces.Box(-velocity_limit, velocity_limit, dtype=np.float32)
+        if scene.camera_spec is not None:
+            shape = (scene.camera_spec.height, scene.camera_spec.width, 3)
+            obs_spaces["camera"] = spaces.Box(0, 255, shape, np.uint8)
+        self.dict_space = spaces.Dict(obs_spaces)
+        self.flat = scene.config.obs_mode == "flat"
+        self.layout: dict[str, slice] = {}
+        """``obs_mode="flat"``: each reading's slice of the flat observation."""
+        self.space: spaces.Space[Any] = self.dict_space
+        if not self.flat:
+            return
+        lows, highs, start = [], [], 0
+        for key, box in obs_spaces.items():
+            assert isinstance(box, spaces.Box)
+            self.layout[key] = slice(start, start + box.shape[0])
+            start += box.shape[0]
+            lows.append(box.low)
+            highs.append(box.high)
+        self.space = spaces.Box(np.concatenate(lows), np.concatenate(highs), dtype=np.float32)
+
+    def assemble(
+        self,
+        laser: NDArray[np.float32] | None,
+        proximity: NDArray[np.float32],
+        velocity: NDArray[np.float32],
+        camera: NDArray[np.uint8] | None = None,
+    ) -> Any:
+        """The observation of these readings (``None``: the robot has no such sensor).
+
+        One robot's readings (1-D, the camera ``(h, w, 3)``) or a batch's rows (one more leading
+        axis); the arrays are used as they are (callers copy reused buffers).
+        """
+        parts: dict[str, NDArray[Any]] = {}
+        if laser is not None:
+            parts["laser"] = laser
+        parts["proximity"] = proximity
+        parts["velocity"] = velocity
+        if camera is not None:
+            parts["camera"] = camera
+        if self.flat:
+            return np.concatenate(list(parts.values()), axis=-1)
+        return parts
 
 
 def world_seeds(seed: int | Sequence[int | None] | None, n: int) -> list[int | None]:
@@ -59,6 +131,29 @@ def reset_mask(
     if chosen.shape != (num_envs,):
         raise ValueError(f"options['reset_mask'] must have shape ({num_envs},)")
     return chosen, left
+
+
+def checked_action(action: Any) -> tuple[float, float]:
+    """One robot's action as two finite floats, or a ``ValueError`` saying what is wrong."""
+    try:
+        raw = np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError) as error:
+        raise ValueError(
+            f"action must be 2 finite numbers (clipped to [-1, 1]), got {action!r}: {error}"
+        ) from None
+    if raw.shape != (2,):
+        shown = raw.ravel()[:4].tolist()  # a list stays on one line; numpy's repr wraps
+        more = ", ..." if raw.size > 4 else ""
+        raise ValueError(
+            f"action must have shape (2,), got shape {raw.shape}: {str(shown)[:-1]}{more}]"
+        )
+    a0, a1 = raw.tolist()
+    if not (math.isfinite(a0) and math.isfinite(a1)):
+        raise ValueError(
+            f"action {[a0, a1]} contains NaN or infinity; actions must be finite numbers, "
+            "and are clipped to [-1, 1]"
+        )
+    return a0, a1
 
 
 def checked_actions(actions: Any, num_envs: int) -> NDArray[np.float64]:

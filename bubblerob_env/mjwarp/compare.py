@@ -40,12 +40,11 @@ DRIVES = ("straight", "curve", "random")
 
 def cpu_laser(env: WarpVectorEnv, world: int) -> NDArray[np.float64]:
     """``mj_multiRay`` from the laser site, on world ``world``'s state copied into CPU MuJoCo."""
-    template = env._template
-    model = copy.deepcopy(template.model)  # the backend's own env stays as it was
+    scene = env.scene
+    model = copy.deepcopy(scene.model)  # the backend's own scene stays as it was
     data = mujoco.MjData(model)
     worlds = env.worlds
-    slots = [slot for kind in template._slots._free.values() for slot in kind]
-    for geom, _, bvh in slots:  # sizes, and the bounding boxes mj_multiRay culls with
+    for geom, _, bvh in scene.slots.slots:  # sizes, and the bounding boxes mj_multiRay culls with
         model.geom_size[geom] = worlds.model.geom_size.numpy()[world, geom]
         model.geom_rbound[geom] = worlds.model.geom_rbound.numpy()[world, geom]
         aabb = worlds.model.geom_aabb.numpy()[world, geom]
@@ -55,7 +54,7 @@ def cpu_laser(env: WarpVectorEnv, world: int) -> NDArray[np.float64]:
     data.mocap_quat[:] = worlds.data.mocap_quat.numpy()[world]
     mujoco.mj_kinematics(model, data)
     site = model.site(names.LASER_SITE).id
-    spec = template.laser_spec
+    spec = scene.laser_spec
     assert spec is not None
     angles = spec.angles()
     local = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=1)

@@ -23,10 +23,11 @@ from numpy.typing import NDArray
 
 from bubblerob_env import names
 from bubblerob_env.batch.common import checked_actions
+from bubblerob_env.core.batch import kernel_settings
 from bubblerob_env.core.kernel import CFG, ICFG, OUT, OUT_SIZE
-from bubblerob_env.env import BubbleRobEnv
 from bubblerob_env.mjwarp import kernels as K
 from bubblerob_env.mjwarp.layouts import LayoutTable, slot_geoms
+from bubblerob_env.scene import Scene
 
 __all__ = ["CONTACTS_PER_WORLD", "CONSTRAINTS_PER_WORLD", "DeviceWorlds", "HostCopy"]
 
@@ -63,9 +64,10 @@ class HostCopy:
     clipped_actions: NDArray[np.int64]
 
 
-def _settings(env: BubbleRobEnv, max_episode_steps: int | None) -> K.Settings:
-    """The CPU kernel's settings of ``env`` (:mod:`bubblerob_env.core.robots`), as Warp's."""
-    icfg, cfg = env._core.icfg, env._core.cfg
+def _settings(scene: Scene, max_episode_steps: int | None) -> K.Settings:
+    """The CPU kernel's settings of ``scene`` (:mod:`bubblerob_env.core.batch`), as Warp's."""
+    config = scene.config
+    icfg, cfg = kernel_settings(config, scene)
     s = K.Settings()
     s.twist, s.has_laser = int(icfg[ICFG.TWIST]), int(icfg[ICFG.LASER])
     s.max_wheel, s.max_linear = float(cfg[CFG.MAX_WHEEL]), float(cfg[CFG.MAX_LINEAR])
@@ -74,7 +76,7 @@ def _settings(env: BubbleRobEnv, max_episode_steps: int | None) -> K.Settings:
     s.range_max = float(cfg[CFG.RANGE_MAX])
     # float32's own step below range_max: float64's rounds back up to range_max in float32.
     s.noisy_ceiling = float(np.nextafter(np.float32(s.range_max), np.float32(0)))
-    s.laser_noise = env.laser_spec.noise_std if env.laser_spec is not None else 0.0
+    s.laser_noise = scene.laser_spec.noise_std if scene.laser_spec is not None else 0.0
     s.proximity_max = float(cfg[CFG.PROXIMITY_MAX])
     s.limit_linear = float(cfg[CFG.VELOCITY_LIMIT_LINEAR])
     s.limit_angular = float(cfg[CFG.VELOCITY_LIMIT_ANGULAR])
@@ -82,24 +84,24 @@ def _settings(env: BubbleRobEnv, max_episode_steps: int | None) -> K.Settings:
     s.clearance_weight = float(cfg[CFG.CLEARANCE_WEIGHT])
     s.clearance_distance = float(cfg[CFG.CLEARANCE_DISTANCE])
     s.hull, s.collision_penalty = float(cfg[CFG.HULL]), float(cfg[CFG.COLLISION_PENALTY])
-    s.terminate_on_collision = int(env.terminate_on_collision)
+    s.terminate_on_collision = int(config.terminate_on_collision)
     s.max_episode_steps = max_episode_steps or 0
-    s.odometry_noise = env.odometry_noise
+    s.odometry_noise = config.odometry_noise
     s.velocity_adr, s.gyro_adr = int(icfg[ICFG.VELOCITY_ADR]), int(icfg[ICFG.GYRO_ADR])
     s.left_wheel_adr = int(icfg[ICFG.WHEEL_ADR])
     s.right_wheel_adr = int(icfg[ICFG.WHEEL_ADR + 1])
     s.proximity_adr = int(icfg[ICFG.PROXIMITY_ADR])
-    s.root_qpos = int(env.model.joint(names.ROOT_JOINT).qposadr[0])
-    s.laser_site = int(env.model.site(names.LASER_SITE).id)
+    s.root_qpos = scene.root_qpos
+    s.laser_site = int(scene.model.site(names.LASER_SITE).id)
     return s
 
 
 class DeviceWorlds:
-    """``n`` worlds of ``env``'s model on ``device``, and their readings and episode state."""
+    """``n`` worlds of ``scene``'s model on ``device``, and their readings and episode state."""
 
     def __init__(
         self,
-        env: BubbleRobEnv,
+        scene: Scene,
         n: int,
         device: str | None,
         max_episode_steps: int | None,
@@ -117,11 +119,11 @@ class DeviceWorlds:
         self._graphs: dict[str, Any] = {}
         self._seen: set[str] = set()
         self.n = n
-        self.substeps = env.physics_substeps
-        self.settings = _settings(env, max_episode_steps)
-        spec = env.laser_spec
+        self.substeps = scene.config.physics_substeps
+        self.settings = _settings(scene, max_episode_steps)
+        spec = scene.laser_spec
         self.nray = spec.num_rays if spec is not None else 0
-        model = env.model
+        model = scene.model
         groups = np.clip(model.geom_group, 0, mujoco.mjNGROUP - 1)
         with wp.ScopedDevice(self.device):
             self.model = mjw.put_model(model, batch_sizes=dict.fromkeys(_BATCHED_FIELDS, n))
@@ -131,7 +133,7 @@ class DeviceWorlds:
             self.is_obstacle: wp.array[Any] = wp.array(
                 (groups == names.OBSTACLE_GROUP).astype(np.int32)
             )
-            self.slot_geoms: wp.array[Any] = wp.array(slot_geoms(env))
+            self.slot_geoms: wp.array[Any] = wp.array(slot_geoms(scene))
             self.actions = wp.zeros((n, 2), dtype=float)
             self.collision = wp.zeros(n, dtype=int)
             self.nearest = wp.zeros(n, dtype=float)

@@ -2,9 +2,10 @@
 
 Row ``k`` of a :class:`LayoutTable` holds what ``gym.make("BubbleRob-v0")`` reset with seed
 ``seeds[k]`` puts into MuJoCo: every obstacle slot's mocap pose (used or parked), the slot geoms'
-sizes and bounding spheres, and the free joint's start pose. The rows are made by resetting a
-CPU env of the same kwargs (its :func:`~bubblerob_env.arena.sample_layout`, its slot writer), so
-a world reset from row ``k`` has the CPU env's arena for that seed, in float32.
+sizes and bounding spheres, and the free joint's start pose. The rows are made by the CPU env's
+own layout placement (:meth:`~bubblerob_env.scene.Scene.place_layout`) on a scene of the same
+config, with the generator a seeded reset makes, so a world reset from row ``k`` has the CPU
+env's arena for that seed, in float32.
 
 Resets on the device copy rows into the worlds being reset (:mod:`bubblerob_env.mjwarp.kernels`):
 a seeded ``reset`` writes one row per world, and autoresets draw rows from a bank made once per
@@ -14,45 +15,44 @@ seeded reset (:class:`~bubblerob_env.mjwarp.vector.WarpVectorEnv`).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import warp as wp
+from gymnasium.utils import seeding
 from numpy.typing import NDArray
 
-from bubblerob_env import names
-
-if TYPE_CHECKING:
-    from bubblerob_env.env import BubbleRobEnv
+from bubblerob_env.scene import Scene
 
 __all__ = ["LayoutTable", "slot_geoms"]
 
 
-def slot_geoms(env: BubbleRobEnv) -> NDArray[np.int32]:
-    """The geom ids of ``env``'s obstacle slots, in the order a table's size columns hold them."""
-    return np.array(env._slots.geom_ids, dtype=np.int32)
+def slot_geoms(scene: Scene) -> NDArray[np.int32]:
+    """The geom ids of ``scene``'s obstacle slots, in the order a table's size columns hold them."""
+    return np.array(scene.slots.geom_ids, dtype=np.int32)
 
 
 class LayoutTable:
-    """The layouts of ``seeds`` on ``device``, made by resetting ``env`` (a CPU env) with each."""
+    """The layouts of ``seeds`` on ``device``, placed in ``scene`` (a CPU env's) for each."""
 
-    def __init__(self, env: BubbleRobEnv, seeds: Sequence[int], device: wp.Device) -> None:
-        geoms = slot_geoms(env)
-        root = int(env.model.joint(names.ROOT_JOINT).qposadr[0])
-        n, nmocap = len(seeds), env.model.nmocap
+    def __init__(self, scene: Scene, seeds: Sequence[int], device: wp.Device) -> None:
+        geoms = slot_geoms(scene)
+        root = scene.root_qpos
+        model, data = scene.model, scene.data
+        n, nmocap = len(seeds), model.nmocap
         pos = np.zeros((n, nmocap, 3), dtype=np.float32)
         quat = np.zeros((n, nmocap, 4), dtype=np.float32)
         size = np.zeros((n, geoms.size, 3), dtype=np.float32)
         rbound = np.zeros((n, geoms.size), dtype=np.float32)
         start = np.zeros((n, 7), dtype=np.float32)
         for k, seed in enumerate(seeds):
-            if env.start_pose is not None:  # the full reset checks it is free
-                env.reset(seed=int(seed))
-            else:  # the same layout and state, without the observation (5x faster)
-                env._place_layout(int(seed))
-            pos[k], quat[k] = env.data.mocap_pos, env.data.mocap_quat
-            size[k], rbound[k] = env.model.geom_size[geoms], env.model.geom_rbound[geoms]
-            start[k] = env.data.qpos[root : root + 7]
+            # The layout and state of a seeded reset, without the observation (5x faster).
+            scene.place_layout(seeding.np_random(int(seed))[0])
+            if scene.config.start_pose is not None:  # as the reset, check that it is free
+                scene.forward()
+            pos[k], quat[k] = data.mocap_pos, data.mocap_quat
+            size[k], rbound[k] = model.geom_size[geoms], model.geom_rbound[geoms]
+            start[k] = data.qpos[root : root + 7]
         self.seeds = np.asarray(seeds, dtype=np.int64)
         self.start_poses = start
         """Each row's free-joint pose (x, y, z, quaternion w, x, y, z), float32."""

@@ -2,7 +2,7 @@
 
 ``gym.make_vec("BubbleRob-v0", num_envs=N, vectorization_mode="vector_entry_point",
 backend="warp", device="cuda:0")`` makes one. Spaces, kwargs, autoreset modes and ``info`` keys
-are the CPU batch's (:class:`~bubblerob_env.vector.BubbleRobVectorEnv`); physics, the collision
+are the CPU batch's (:class:`~bubblerob_env.batch.cpu.BubbleRobVectorEnv`); physics, the collision
 check after every substep, the laser (``mujoco_warp.rays``), the proximity sensor, rewards,
 odometry, time limits and resets run on the device, for every world at once.
 
@@ -36,6 +36,7 @@ from bubblerob_env.batch.common import (
     checked_autoreset_mode,
     collate_infos,
     reset_mask,
+    robot_obs,
     world_seeds,
 )
 from bubblerob_env.checks import check_bool, check_choice, check_int_range
@@ -93,8 +94,11 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
                 f"render_mode={kwargs['render_mode']!r} is not available with backend='warp'; "
                 "use backend='cpu' to render"
             )
-        self._template = BubbleRobEnv(**kwargs)  # checks every kwarg; draws the arenas
+        self._template = BubbleRobEnv(**kwargs)  # checks every kwarg; answers get_attr
         first = self._template
+        self.scene = first.scene
+        """The CPU env's scene every world copies (its model, obstacle slots, sensors); the
+        layout tables draw the arenas in it."""
         self.num_envs = num_envs
         self.max_episode_steps = max_episode_steps
         self.outputs = outputs
@@ -105,7 +109,7 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
         self.single_action_space = first.action_space
         self.observation_space = batch_space(first.observation_space, num_envs)
         self.action_space = batch_space(first.action_space, num_envs)
-        self.worlds = DeviceWorlds(first, num_envs, device, max_episode_steps, graphs)
+        self.worlds = DeviceWorlds(self.scene, num_envs, device, max_episode_steps, graphs)
         """The device state: MuJoCo Warp's model and data, the readings, the kernels' settings."""
         self.device = self.worlds.device
         self.arena_seeds = np.zeros(num_envs, dtype=np.int64)
@@ -140,9 +144,9 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
             start = int(base if base is not None else drawn[0]) + self.num_envs
             if self._bank is None or int(self._bank.seeds[0]) != start:  # kept across resets
                 seeds_ = range(start, start + self.layout_bank)
-                self._bank = LayoutTable(self._template, seeds_, self.device)
+                self._bank = LayoutTable(self.scene, seeds_, self.device)
         rows = np.flatnonzero(chosen)
-        table = LayoutTable(self._template, resolved[rows].tolist(), self.device)
+        table = LayoutTable(self.scene, resolved[rows].tolist(), self.device)
         table_rows = np.zeros(self.num_envs, dtype=np.int32)
         table_rows[rows] = np.arange(rows.size, dtype=np.int32)
         self.worlds.noise_seeds(resolved, chosen)
@@ -180,7 +184,7 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
             final_obs = self._observations(host, host_only=True)
             for i in np.flatnonzero(done).tolist():
                 final_info = self._step_info(host, i)
-                finals[i] = (_row(final_obs, i), final_info)
+                finals[i] = (robot_obs(final_obs, i), final_info)
             self._autoreset_worlds(done)
             self.worlds.sense(active=done, resetting=done)
             host = self.worlds.fetch(rewards=host.rewards)
@@ -207,15 +211,10 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
     def _observations(self, host: HostCopy, host_only: bool = False) -> Any:
         """Numpy observations, or the device's when ``outputs="warp"``."""
         if self.outputs == "warp" and not host_only:
-            return self.worlds.device_observations(self._template.obs_mode)
-        parts: dict[str, NDArray[Any]] = {}
-        if self._template.laser_spec is not None:
-            parts["laser"] = host.laser
-        parts["proximity"] = host.proximity
-        parts["velocity"] = host.velocity
-        if self._template.obs_mode == "flat":
-            return np.concatenate(list(parts.values()), axis=1)
-        return parts  # the host copy's own arrays, new every fetch
+            return self.worlds.device_observations(self.scene.config.obs_mode)
+        laser = host.laser if self.scene.laser_spec is not None else None
+        # The host copy's own arrays, new every fetch: no copies.
+        return self._template.observation_format.assemble(laser, host.proximity, host.velocity)
 
     def _infos(
         self, host: HostCopy, resets: list[int], with_success: bool = True
@@ -264,12 +263,6 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
         if template is not None:
             template.close()
         self.__dict__.pop("worlds", None)
-
-
-def _row(obs: Any, i: int) -> Any:
-    if isinstance(obs, dict):
-        return {key: value[i].copy() for key, value in obs.items()}
-    return obs[i].copy()
 
 
 def _collate_resets(

@@ -1,21 +1,24 @@
 """The Python side of the kernel: each robot's addresses, the shared settings, the buffers.
 
-A :class:`RobotBatch` is built over one or more envs that share their settings (a single env is a
-batch of one). It owns the arrays :func:`~bubblerob_env.core.kernel.step_robots` reads and
-writes; the env and the vector env turn the results into observations and ``info``.
+A :class:`RobotBatch` is built from an env config and one or more scenes of it
+(:class:`~bubblerob_env.scene.Scene`; a single env is a batch of one). It owns the arrays
+:func:`~bubblerob_env.core.kernel.step_robots` reads and writes; the env and the batches turn
+the results into observations and ``info``. :func:`kernel_settings` are the kernel's settings
+of a config and scene (the MuJoCo Warp backend reads them too).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
 from bubblerob_env import names
+from bubblerob_env.config import EnvConfig, SpeedLimits
 from bubblerob_env.core.kernel import (
     CFG,
     CFG_SIZE,
@@ -33,16 +36,16 @@ from bubblerob_env.core.kernel import (
 )
 from bubblerob_env.core.mjabi import data_layout
 from bubblerob_env.core.raycast import GEOM_BOX, GEOM_CYLINDER
-from bubblerob_env.sensors import LaserSpec
+from bubblerob_env.sensors import LaserSpec, ProximitySpec
 
-if TYPE_CHECKING:
-    from bubblerob_env.env import BubbleRobEnv
+__all__ = [
+    "RobotBatch",
+    "RobotScene",
+    "analytic_unsupported",
+    "kernel_settings",
+    "laser_geoms",
+]
 
-__all__ = ["LASER_BACKENDS", "RobotBatch", "analytic_unsupported", "laser_geoms"]
-
-LASER_BACKENDS = ("auto", "analytic", "mujoco")
-"""``laser_backend`` values: the analytic caster where the scene allows it (``auto``), always
-(``analytic``: an error where it cannot), or MuJoCo's ``mj_multiRay`` (``mujoco``)."""
 _UPRIGHT_TOLERANCE = 1e-9
 _WARNINGS = mujoco.mjtWarning
 
@@ -76,22 +79,53 @@ def analytic_unsupported(
     return problems
 
 
+class RobotScene(Protocol):
+    """What the kernel reads of a scene (:class:`~bubblerob_env.scene.Scene`)."""
+
+    @property
+    def model(self) -> mujoco.MjModel:
+        """The compiled model."""
+
+    @property
+    def data(self) -> mujoco.MjData:
+        """The robot's data."""
+
+    @property
+    def laser_spec(self) -> LaserSpec | None:
+        """The laser (``None``: none)."""
+
+    @property
+    def proximity_spec(self) -> ProximitySpec:
+        """The nose sensor."""
+
+    @property
+    def limits(self) -> SpeedLimits:
+        """The drive and the twist limits."""
+
+    @property
+    def analytic(self) -> bool:
+        """Whether the analytic caster runs the laser."""
+
+
 class RobotBatch:
-    """Kernel inputs and outputs for ``envs``, robot ``i`` being ``envs[i]``."""
+    """Kernel inputs and outputs for ``scenes`` of ``config``, robot ``i`` being ``scenes[i]``.
+
+    ``tables``: the read-only tables of another batch of the same config, to share (default:
+    made from the first scene).
+    """
 
     def __init__(
         self,
-        envs: Sequence[BubbleRobEnv],
-        analytic: bool,
+        config: EnvConfig,
+        scenes: Sequence[RobotScene],
         tables: Tables | None = None,
     ) -> None:
-        first = envs[0]
-        n = len(envs)
+        first = scenes[0]
+        n = len(scenes)
         spec = first.laser_spec
         nray = spec.num_rays if spec is not None else 0
         self.ptrs = np.zeros((n, PTR_SIZE), dtype=np.uint64)
-        self.icfg = _int_settings(first, analytic)
-        self.cfg = _float_settings(first)
+        self.icfg, self.cfg = kernel_settings(config, first)
         model = first.model
         # Read-only tables of the model and the laser: robots with the same settings share them.
         self.tables = tables if tables is not None else _tables(model, spec)
@@ -113,8 +147,8 @@ class RobotBatch:
         )
         self.outputs: Outputs = (self.laser, self.proximity, self.velocity, self.out)
         self.all_robots = np.arange(n, dtype=np.int64)
-        for i, env in enumerate(envs):
-            self.bind(i, env.model, env.data)
+        for i, scene in enumerate(scenes):
+            self.bind(i, scene.model, scene.data)
 
     def bind(self, i: int, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         """Point robot ``i`` at this model and data (after building or unpickling them)."""
@@ -169,12 +203,22 @@ def _tables(model: mujoco.MjModel, spec: LaserSpec | None) -> Tables:
     return (is_obstacle, model.geom_type.astype(np.int32), local_dirs, geomgroup)
 
 
-def _int_settings(env: BubbleRobEnv, analytic: bool) -> NDArray[np.int64]:
+def kernel_settings(
+    config: EnvConfig, scene: RobotScene
+) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """The kernel's integer and float settings (``ICFG``, ``CFG``) of ``scene`` of ``config``.
+
+    A ``ValueError`` if a speed or reward weight is not finite.
+    """
+    return _int_settings(config, scene), _float_settings(config, scene)
+
+
+def _int_settings(config: EnvConfig, scene: RobotScene) -> NDArray[np.int64]:
     layout = data_layout()
-    model = env.model
+    model = scene.model
     icfg = np.zeros(ICFG_SIZE, dtype=np.int64)
-    icfg[ICFG.SUBSTEPS] = env.physics_substeps
-    icfg[ICFG.TWIST] = env.action_type == "twist"
+    icfg[ICFG.SUBSTEPS] = config.physics_substeps
+    icfg[ICFG.TWIST] = config.action_type == "twist"
     icfg[ICFG.NCON], icfg[ICFG.TIME], icfg[ICFG.CONTACT] = layout.ncon, layout.time, layout.contact
     icfg[ICFG.CONTACT_SIZE], icfg[ICFG.CONTACT_GEOM] = layout.contact_size, layout.contact_geom
     icfg[ICFG.VELOCITY_ADR] = model.sensor(names.VELOCIMETER_SENSOR).adr[0]
@@ -190,32 +234,34 @@ def _int_settings(env: BubbleRobEnv, analytic: bool) -> NDArray[np.int64]:
     icfg[ICFG.BADQVEL] = _WARNINGS.mjWARN_BADQVEL
     icfg[ICFG.CONTACTFULL] = _WARNINGS.mjWARN_CONTACTFULL
     icfg[ICFG.CNSTRFULL] = _WARNINGS.mjWARN_CNSTRFULL
-    icfg[ICFG.LASER] = env.laser_spec is not None
-    icfg[ICFG.ANALYTIC] = analytic
-    icfg[ICFG.NOISE] = env.laser_spec is not None and env.laser_spec.noise_std > 0.0
+    spec = scene.laser_spec
+    icfg[ICFG.LASER] = spec is not None
+    icfg[ICFG.ANALYTIC] = scene.analytic
+    icfg[ICFG.NOISE] = spec is not None and spec.noise_std > 0.0
     return icfg
 
 
-def _float_settings(env: BubbleRobEnv) -> NDArray[np.float64]:
+def _float_settings(config: EnvConfig, scene: RobotScene) -> NDArray[np.float64]:
     cfg = np.zeros(CFG_SIZE)
-    drive = env.drive
+    limits = scene.limits
+    drive = limits.drive
     cfg[CFG.MAX_WHEEL] = drive.max_wheel_speed
-    cfg[CFG.MAX_LINEAR], cfg[CFG.MAX_ANGULAR] = env.max_linear_speed, env.max_angular_speed
+    cfg[CFG.MAX_LINEAR], cfg[CFG.MAX_ANGULAR] = limits.max_linear_speed, limits.max_angular_speed
     cfg[CFG.WHEEL_RADIUS], cfg[CFG.WHEEL_SEPARATION] = drive.wheel_radius, drive.wheel_separation
-    spec = env.laser_spec
+    spec = scene.laser_spec
     if spec is not None:
         cfg[CFG.RANGE_MAX] = spec.range_max
         cfg[CFG.ANGLE_MIN], cfg[CFG.ANGLE_INCREMENT] = spec.angle_min, spec.angle_increment
         cfg[CFG.FULL_CIRCLE] = spec.full_circle
         cfg[CFG.NOISY_CEILING] = np.nextafter(spec.range_max, 0)
-    cfg[CFG.PROXIMITY_MAX] = env.proximity_spec.range_max
-    cfg[CFG.VELOCITY_LIMIT_LINEAR], cfg[CFG.VELOCITY_LIMIT_ANGULAR] = env._velocity_limit
-    cfg[CFG.FORWARD_WEIGHT] = env.forward_reward_weight
-    cfg[CFG.SPIN_WEIGHT] = env.spin_cost_weight
-    cfg[CFG.CLEARANCE_WEIGHT] = env.clearance_cost_weight
-    cfg[CFG.CLEARANCE_DISTANCE] = env.clearance_distance
-    cfg[CFG.HULL] = env.robot.radius
-    cfg[CFG.COLLISION_PENALTY] = env.collision_penalty
+    cfg[CFG.PROXIMITY_MAX] = scene.proximity_spec.range_max
+    cfg[CFG.VELOCITY_LIMIT_LINEAR], cfg[CFG.VELOCITY_LIMIT_ANGULAR] = limits.velocity_limit
+    cfg[CFG.FORWARD_WEIGHT] = config.forward_reward_weight
+    cfg[CFG.SPIN_WEIGHT] = config.spin_cost_weight
+    cfg[CFG.CLEARANCE_WEIGHT] = config.clearance_cost_weight
+    cfg[CFG.CLEARANCE_DISTANCE] = config.clearance_distance
+    cfg[CFG.HULL] = config.robot.radius
+    cfg[CFG.COLLISION_PENALTY] = config.collision_penalty
     if not math.isfinite(float(cfg.sum())):
         raise ValueError("the env's speeds and reward weights must be finite numbers")
     return cfg
