@@ -1,4 +1,4 @@
-"""What several commands share: the help formatter, ``--env``/``--env-kwargs`` and making the env."""
+"""What several commands share: the help formatter, --env and --env-kwargs, making the env."""
 
 from __future__ import annotations
 
