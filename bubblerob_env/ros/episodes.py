@@ -32,7 +32,7 @@ from bubblerob_env.mapping import (
     episode_grid,
     has_arena,
 )
-from bubblerob_env.ros.bags.fanout import MessageFanout
+from bubblerob_env.ros.fanout import MessageFanout
 
 __all__ = [
     "MAX_START_NS",

@@ -18,7 +18,6 @@ from numpy.typing import NDArray
 
 from bubblerob_env.mapping import DEFAULT_RESOLUTION
 from bubblerob_env.ros.bags import safety
-from bubblerob_env.ros.bags.fanout import MessageFanout
 from bubblerob_env.ros.bags.sinks import (
     DEFAULT_DISTRO,
     FORMATS,
@@ -28,6 +27,7 @@ from bubblerob_env.ros.bags.sinks import (
     remove_bag,
 )
 from bubblerob_env.ros.episodes import RESERVED_KEYS, EpisodeStream, jsonable, start_time_ns
+from bubblerob_env.ros.fanout import MessageFanout
 from bubblerob_env.ros.messages.topics import Topics
 from bubblerob_env.specs import EnvSpecs
 

@@ -9,9 +9,9 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from bubblerob_env.ros.bags.fanout import MessageFanout
 from bubblerob_env.ros.bags.sinks import BagSink, open_bag
 from bubblerob_env.ros.episodes import EpisodeStream
+from bubblerob_env.ros.fanout import MessageFanout
 from bubblerob_env.ros.fastpath.framing import Framing, Record
 from bubblerob_env.ros.messages.topics import Topics
 from bubblerob_env.specs import EnvSpecs

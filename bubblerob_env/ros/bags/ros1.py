@@ -29,9 +29,9 @@ from bubblerob_env.ros.fastpath.framing import (
     FrameLayout,
     Record,
     append_batch,
+    append_records,
     index_entries,
     index_frames,
-    record_header,
 )
 
 __all__ = ["Ros1Writer", "roslz4_compress"]
@@ -158,24 +158,9 @@ class Ros1Writer(rosbag1.Writer):
         """Append ``(topic, stamp, data)`` records to the open chunk (``ids``: topic -> conn)."""
         chunk = self.chunks[-1]
         self._index_pending(chunk)
-        index = chunk.connections
-        pos = chunk.data.tell()
-        low, high = chunk.start, chunk.end
-        parts = []
-        for topic, stamp, payload in records:
-            cid = ids[topic]
-            index[cid].append((stamp, pos))
-            header = record_header("ros1", cid, len(payload), stamp)
-            parts.append(header)
-            parts.append(payload)
-            pos += len(header) + len(payload)
-            if stamp < low:
-                low = stamp
-            if stamp > high:
-                high = stamp
-        chunk.data.write(b"".join(parts))
-        chunk.start, chunk.end = low, high
-        if pos > self.chunk_threshold:
+        low, high, _ = append_records("ros1", chunk.data, chunk.connections, records, ids)
+        chunk.start, chunk.end = min(chunk.start, low), max(chunk.end, high)
+        if chunk.data.tell() > self.chunk_threshold:
             self.write_chunk(chunk)
 
     def write_chunk(self, chunk: WriteChunk) -> None:

@@ -13,7 +13,7 @@ import struct
 import sys
 import zlib
 from collections import defaultdict
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from io import BytesIO
 from pathlib import Path
 from typing import Any
@@ -31,11 +31,13 @@ from bubblerob_env.ros.bags.mcap_crc import seal
 from bubblerob_env.ros.fastpath.framing import (
     Frame,
     FrameLayout,
+    PackedBatchWriter,
+    PackedWriter,
     Record,
     append_batch,
+    append_records,
     index_entries,
     index_frames,
-    record_header,
 )
 
 if sys.version_info >= (3, 14):  # the zstd that rosbags uses
@@ -43,18 +45,7 @@ if sys.version_info >= (3, 14):  # the zstd that rosbags uses
 else:  # pragma: no cover
     from backports import zstd
 
-__all__ = [
-    "McapStorage",
-    "PackedBatchWriter",
-    "PackedWriter",
-    "Rosbag2Writer",
-    "mcap_zstd_compress",
-]
-
-PackedWriter = Callable[[bytes, FrameLayout, int, int], None]
-"""``write_packed(data, layout, stamp, action_stamp)`` of a writer."""
-PackedBatchWriter = Callable[[Any, FrameLayout, NDArray[np.int64], NDArray[np.int64]], None]
-"""``write_packed_batch(data, layout, stamps, action_stamps)``: ``len(stamps)`` packed frames."""
+__all__ = ["McapStorage", "Rosbag2Writer", "mcap_zstd_compress"]
 
 _INSERT_MESSAGE = "INSERT INTO messages (topic_id, timestamp, data) VALUES(?, ?, ?)"
 """rosbags' sqlite3 insert of one message row."""
@@ -193,31 +184,16 @@ class McapStorage(McapWriter):
         """Append ``(topic, stamp, data)`` records; returns their lowest and highest stamps."""
         self.index_pending()
         chunk = self.chunk
-        index = chunk.msgs
-        stats = self.channel_stats
-        counts = self.counts
-        pos = chunk.bio.tell()
-        low = high = records[0][1]
-        parts = []
-        for topic, stamp, payload in records:
-            cid = ids[topic]
-            index[cid].append((stamp, pos))
-            header = record_header("mcap", cid, len(payload), stamp)
-            parts.append(header)
-            parts.append(payload)
-            pos += len(header) + len(payload)
+        low, high, channels = append_records("mcap", chunk.bio, chunk.msgs, records, ids)
+        stats, counts = self.channel_stats, self.counts
+        for cid in channels:
             stats[cid] += 1
             counts[cid] += 1
-            if stamp < low:
-                low = stamp
-            if stamp > high:
-                high = stamp
-        chunk.bio.write(b"".join(parts))
         chunk.message_start_time = min(chunk.message_start_time, low)
         chunk.message_end_time = max(chunk.message_end_time, high)
         self.message_start_time = min(self.message_start_time, low)
         self.message_end_time = max(self.message_end_time, high)
-        if pos > self.CHUNK_SIZE:
+        if chunk.bio.tell() > self.CHUNK_SIZE:
             self.close_chunk()
         return low, high
 

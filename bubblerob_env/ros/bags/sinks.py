@@ -34,13 +34,14 @@ from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin
 
 from bubblerob_env.ros.bags.humble import humble_qos
 from bubblerob_env.ros.bags.lock import BagLock, BagLockedError
-from bubblerob_env.ros.bags.writers import (
+from bubblerob_env.ros.bags.writers import Ros1Writer, Rosbag2Writer
+from bubblerob_env.ros.fastpath.framing import (
+    FrameLayout,
+    Framing,
     PackedBatchWriter,
     PackedWriter,
-    Ros1Writer,
-    Rosbag2Writer,
+    Record,
 )
-from bubblerob_env.ros.fastpath.framing import FrameLayout, Framing, Record
 from bubblerob_env.ros.messages.distros import get_distro, message_definition
 
 __all__ = [

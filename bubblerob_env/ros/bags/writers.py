@@ -32,13 +32,11 @@ from rosbags.rosbag2.storage_mcap import McapWriter, PendingChunk
 from rosbags.rosbag2.storage_sqlite3 import Sqlite3Writer
 
 from bubblerob_env.ros.bags.ros1 import Ros1Writer, roslz4_compress
-from bubblerob_env.ros.bags.ros2 import PackedBatchWriter, PackedWriter, Rosbag2Writer
+from bubblerob_env.ros.bags.ros2 import Rosbag2Writer
 from bubblerob_env.ros.fastpath.framing import NO_TIME
 
 __all__ = [
     "RELIED_ON",
-    "PackedBatchWriter",
-    "PackedWriter",
     "Ros1Writer",
     "Rosbag2Writer",
     "roslz4_compress",

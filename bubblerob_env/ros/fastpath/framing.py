@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import struct
 from collections import defaultdict
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, BinaryIO
 
@@ -25,8 +25,11 @@ __all__ = [
     "NO_TIME",
     "FrameLayout",
     "Framing",
+    "PackedBatchWriter",
+    "PackedWriter",
     "Record",
     "append_batch",
+    "append_records",
     "index_entries",
     "index_frames",
     "record_header",
@@ -114,6 +117,10 @@ Frame = tuple[FrameLayout, int, Any, Any]
 and action stamp (ints: one frame; equal-length ``int64`` arrays: that many frames in a row)."""
 Index = dict[int, list[Any]]
 """Channel -> its ``(stamp, position)`` tuples and ``(n, 2)`` arrays of them, in write order."""
+PackedWriter = Callable[[bytes, FrameLayout, int, int], None]
+"""``write_packed(data, layout, stamp, action_stamp)`` of a writer."""
+PackedBatchWriter = Callable[[Any, FrameLayout, NDArray[np.int64], NDArray[np.int64]], None]
+"""``write_packed_batch(data, layout, stamps, action_stamps)``: ``len(stamps)`` packed frames."""
 
 
 def _runs(frames: list[Frame]) -> Iterator[tuple[FrameLayout, NDArray[np.int64], Any, Any]]:
@@ -156,6 +163,36 @@ def index_frames(frames: list[Frame], index: Index) -> tuple[int, int, dict[int,
             low = min(low, int(stamps[action].min()))
             high = max(high, int(stamps[action].max()))
     return low, high, counts
+
+
+def append_records(
+    kind: str, buffer: BinaryIO, index: Index, records: Sequence[Record], ids: Mapping[str, int]
+) -> tuple[int, int, list[int]]:
+    """Append ``(topic, stamp, data)`` records, framed as ``kind``, to a writer's open chunk.
+
+    The one record loop of the MCAP and ROS 1 writers: each record's header
+    (:func:`record_header`) and message go to the end of ``buffer`` in one write, and its
+    ``(stamp, position)`` to ``index`` under its channel (``ids[topic]``). Returns the lowest and
+    highest stamp (:data:`NO_TIME` and 0 for no records) and each record's channel, in order.
+    """
+    pos = buffer.tell()
+    low, high = NO_TIME, 0
+    channels = []
+    parts = []
+    for topic, stamp, payload in records:
+        cid = ids[topic]
+        index[cid].append((stamp, pos))
+        header = record_header(kind, cid, len(payload), stamp)
+        parts.append(header)
+        parts.append(payload)
+        pos += len(header) + len(payload)
+        channels.append(cid)
+        if stamp < low:
+            low = stamp
+        if stamp > high:
+            high = stamp
+    buffer.write(b"".join(parts))
+    return low, high, channels
 
 
 def append_batch(

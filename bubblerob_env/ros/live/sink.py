@@ -1,22 +1,20 @@
-"""``LiveSink``: the bag-sink interface, publishing to a live ROS graph instead of a file.
+"""``LiveSink``: a :class:`~bubblerob_env.ros.sink.Sink` publishing to a live ROS graph, not a file.
 
-:class:`~bubblerob_env.ros.bags.fanout.MessageFanout` serialises each message once per distro and
+:class:`~bubblerob_env.ros.fanout.MessageFanout` serialises each message once per distro and
 hands the same bytes to every sink of that distro: a bag, this sink, or both at once.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-from pathlib import Path
 
-from bubblerob_env.ros.bags.sinks import BagSink
-from bubblerob_env.ros.fastpath.framing import Record
+from bubblerob_env.ros.fastpath.framing import Framing, PackedBatchWriter, PackedWriter, Record
 from bubblerob_env.ros.live.backend import LiveBackend, Publish
 
 __all__ = ["LiveSink"]
 
 
-class LiveSink(BagSink):
+class LiveSink:
     """Publishes every record on its topic through ``backend``; muted topics are skipped.
 
     A topic set with :meth:`publish_every` goes out only every ``n``-th record (the first, then
@@ -26,8 +24,9 @@ class LiveSink(BagSink):
 
     def __init__(self, backend: LiveBackend) -> None:
         """Publish through ``backend`` (its distro decides which serializer feeds this sink)."""
-        super().__init__(Path(f"ros{backend.ros_version}-live"), "live", backend.distro)
+        self.distro = backend.distro
         self.backend = backend
+        self.closed = False
         self._publish: dict[str, Publish] = {}
         self._types: dict[str, str] = {}
         self.muted: set[str] = set()
@@ -53,6 +52,18 @@ class LiveSink(BagSink):
             if topic not in muted:
                 self._publish[topic](data)
                 self.published += 1
+
+    def framing(self) -> Framing | None:
+        """None: this sink takes records (each published as it comes), not packed frames."""
+        return None
+
+    def packed_writer(self) -> PackedWriter:
+        """Not offered: :meth:`framing` is None, so the fan-out sends records."""
+        raise NotImplementedError("LiveSink takes records, not packed frames")
+
+    def packed_batch_writer(self) -> PackedBatchWriter:
+        """Not offered: :meth:`framing` is None, so the fan-out sends records."""
+        raise NotImplementedError("LiveSink takes records, not packed frames")
 
     def publish_every(self, topic: str, every: int) -> None:
         """Publish ``topic``'s first record, then every ``every``-th (1: all of them)."""

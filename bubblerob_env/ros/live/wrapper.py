@@ -16,13 +16,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bubblerob_env.mapping import DEFAULT_RESOLUTION
-from bubblerob_env.ros.bags.fanout import MessageFanout
-from bubblerob_env.ros.bags.sinks import BagSink
 from bubblerob_env.ros.episodes import EpisodeStream, jsonable, start_time_ns
+from bubblerob_env.ros.fanout import MessageFanout
 from bubblerob_env.ros.live.backend import LiveBackend
 from bubblerob_env.ros.live.connect import load_backend
 from bubblerob_env.ros.live.sink import LiveSink
 from bubblerob_env.ros.messages.topics import Topics
+from bubblerob_env.ros.sink import Sink
 from bubblerob_env.specs import EnvSpecs
 
 __all__ = ["RosLivePublisher"]
@@ -60,7 +60,7 @@ class RosLivePublisher(gym.Wrapper[Any, Any, Any, Any]):
         backend: LiveBackend | None = None,
         ros: int = 1,
         topics: Topics | None = None,
-        sinks: Sequence[BagSink] = (),
+        sinks: Sequence[Sink] = (),
         metadata: Mapping[str, Any] | None = None,
         start_time: float | str | None = None,
         map_resolution: float = DEFAULT_RESOLUTION,

@@ -5,6 +5,8 @@ among its sinks (:class:`~bubblerob_env.ros.fastpath.serializer.FrameSerializer`
 same bytes to each sink: a recorder has one sink; live publishing adds more. When every sink
 frames records (a recorder), frames after steps are gathered and packed in batches instead
 (:mod:`~bubblerob_env.ros.fastpath.batch`): the same bytes at a fraction of the cost per step.
+Bags and live publishers alike meet the :class:`~bubblerob_env.ros.sink.Sink` protocol: the
+fan-out imports neither ``bags`` nor ``live``, which both build on it.
 """
 
 from __future__ import annotations
@@ -14,13 +16,12 @@ from typing import Any, SupportsFloat
 
 from numpy.typing import NDArray
 
-from bubblerob_env.ros.bags.sinks import BagSink
-from bubblerob_env.ros.bags.writers import PackedBatchWriter, PackedWriter
 from bubblerob_env.ros.fastpath.batch import FrameBatch
-from bubblerob_env.ros.fastpath.framing import Framing
+from bubblerob_env.ros.fastpath.framing import Framing, PackedBatchWriter, PackedWriter
 from bubblerob_env.ros.fastpath.serializer import FramePacker, FrameSerializer
 from bubblerob_env.ros.messages.detections import Recognised
 from bubblerob_env.ros.messages.topics import Topics
+from bubblerob_env.ros.sink import Sink
 from bubblerob_env.specs import EnvSpecs
 
 __all__ = ["MessageFanout"]
@@ -33,12 +34,12 @@ class MessageFanout:
 
     Per frame the work is planned once per set of sinks (:meth:`_update_routes`): one send per
     distro, which packs the frame once per framing and hands the bytes to each sink's
-    :meth:`~bubblerob_env.ros.bags.sinks.BagSink.packed_writer`; sinks without framing get records.
+    :meth:`~bubblerob_env.ros.sink.Sink.packed_writer`; sinks without framing get records.
 
     If every sink frames records (bags, no live sink), frames after steps are batched: up to
     ``batch_frames`` of them (and about a MiB) are gathered, then converted and packed together
     and handed to each sink's
-    :meth:`~bubblerob_env.ros.bags.sinks.BagSink.packed_batch_writer`. Every
+    :meth:`~bubblerob_env.ros.sink.Sink.packed_batch_writer`. Every
     other write (records, a reset's frame, adding or removing a sink) and :meth:`flush` first
     writes the pending frames, so the bags hold the same bytes in the same order.
     ``batch_frames=0`` sends every frame at once. Close a sink only after :meth:`remove_sink`
@@ -54,7 +55,7 @@ class MessageFanout:
         self._batch: FrameBatch | None = None  # gathering frames after steps, if batching
         self._batch_sends: list[tuple[FramePacker, list[PackedBatchWriter]]] = []
         self._serializers: dict[str, FrameSerializer] = {}
-        self._sinks: dict[str, list[BagSink]] = {}
+        self._sinks: dict[str, list[Sink]] = {}
         self._sends: dict[str, tuple[_Send, _Send]] = {}  # per distro: after a reset, a step
         self._plan: tuple[list[_Send], list[_Send]] = ([], [])  # every distro's sends
         self._convert: Callable[..., tuple[Any, ...]] | None = None  # frame_args
@@ -69,7 +70,7 @@ class MessageFanout:
             self._serializers[distro] = FrameSerializer(self.specs, distro, self.topics)
         return self._serializers[distro]
 
-    def add_sink(self, sink: BagSink) -> None:
+    def add_sink(self, sink: Sink) -> None:
         """Start sending to ``sink``, declaring every topic in it."""
         self.flush()  # frames gathered so far go to the sinks they were gathered for
         serializer = self.serializer(sink.distro)
@@ -78,7 +79,7 @@ class MessageFanout:
         self._sinks.setdefault(sink.distro, []).append(sink)
         self._update_routes(sink.distro)  # compiles the packers now: errors before the first frame
 
-    def remove_sink(self, sink: BagSink) -> None:
+    def remove_sink(self, sink: Sink) -> None:
         """Stop sending to ``sink`` (it is not closed), after writing the pending frames.
 
         The sink is removed even if writing them fails (the error is raised after).
@@ -141,7 +142,7 @@ class MessageFanout:
     def _sender(self, distro: str, stepped: bool) -> _Send:
         serializer = self._serializers[distro]
         groups: dict[Framing, tuple[FramePacker, list[PackedWriter]]] = {}
-        plain: list[BagSink] = []
+        plain: list[Sink] = []
         for sink in self._sinks[distro]:
             framing = sink.framing()
             if framing is None:
@@ -183,7 +184,7 @@ class MessageFanout:
         return self._batch is not None
 
     @property
-    def sinks(self) -> list[BagSink]:
+    def sinks(self) -> list[Sink]:
         """Every sink, in the order they were added per distro."""
         return [sink for group in self._sinks.values() for sink in group]
 
