@@ -8,7 +8,7 @@ Part 1 trains PPO with ``train/hyperparams/ppo.yml`` (its ``env_kwargs`` reward 
 limit reached without a collision) first reaches 90%.
 Part 2 measures SB3 PPO throughput (env steps/s including updates) with 1 and 2 envs, in-process
 (DummyVecEnv) and in subprocesses (SubprocVecEnv), and 8 envs in-process and as the native batch
-(``bubblerob_env.sb3``, ``--vec-env batched`` for part 1: it gives the same episodes, so the same
+(``train.sb3_vec``, ``--vec-env batched`` for part 1: it gives the same episodes, so the same
 policy after the same steps, and only the wall time differs), beside the same PPO settings on
 Gymnasium's ``HalfCheetah-v5`` measured in the same run as the anchor; the ratio column is relative
 to it.
@@ -32,7 +32,8 @@ from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
 
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
-from train.train import _schedules, batched_envs, load_hyperparams, wrapper_class
+from train.envs import batched_envs
+from train.zoo import load_hyperparams, schedules, wrapper_class
 
 ALGO_KEYS = (
     "n_steps",
@@ -119,7 +120,7 @@ def time_to_success(
     )
     if config.get("normalize"):
         envs = VecNormalize(envs, gamma=float(config["gamma"]))
-    kwargs = _schedules({k: config[k] for k in ALGO_KEYS if k in config})
+    kwargs = schedules({k: config[k] for k in ALGO_KEYS if k in config})
     model = PPO(config["policy"], envs, seed=0, device="cpu", verbose=0, **kwargs)
     callback = StopAtSuccess(every, episodes, 0.9, wrap)
     model.learn(min(max_steps, int(config["n_timesteps"])), callback=callback)

@@ -3,7 +3,7 @@
 ``LaserPooling`` min-pools the laser scan into sectors (360 rays -> 36 by default): the nearest
 reading in each group of ``pool`` consecutive rays, so that a small obstacle between the rays of
 a coarse scan is still seen. Training applies it through rl-zoo's ``env_wrapper`` key, and the
-shipped policies apply the same pooling to the env's full scan (``load_policy``, the ONNX graph).
+trained policies apply the same pooling to the env's full scan (:func:`min_pool`).
 
 ``TopDownView`` makes ``render()`` return the view from above drawn with NumPy
 (:class:`~bubblerob_env.topdown.TopDownRenderer`, about a millisecond a 360x360 frame against some
@@ -31,72 +31,12 @@ from gymnasium.utils import RecordConstructorArgs
 from numpy.typing import NDArray
 
 __all__ = [
-    "RESIDUAL_ON_LASER",
     "ActionNoise",
     "EpisodeSuccess",
     "LaserPooling",
     "TopDownView",
-    "laser_pooling",
     "min_pool",
-    "parse_env_wrapper",
 ]
-
-LASER_POOLING = "bubblerob_env.wrappers.LaserPooling"
-ACTION_NOISE = "bubblerob_env.wrappers.ActionNoise"
-TRAINING_ONLY = (ACTION_NOISE,)
-"""``env_wrapper`` entries that act only while training: a trained policy replays nothing."""
-RESIDUAL_ON_LASER = "policies.residual.ResidualOnLaser"
-"""The action side of a residual policy: ``load_policy`` replays it (``policies.residual``)."""
-
-
-def parse_env_wrapper(spec: Any) -> list[tuple[str, dict[str, Any]]]:
-    """rl-zoo's ``env_wrapper`` hyperparameter as ``[("module.Class", kwargs), ...]``.
-
-    ``spec`` is what rl-baselines3-zoo accepts: ``None``, a string ``"module.Class"``, a one-key
-    mapping ``{"module.Class": {kwargs}}``, or a list of those (applied first to last).
-    """
-    if spec is None:
-        return []
-    entries = spec if isinstance(spec, list) else [spec]
-    parsed = []
-    for entry in entries:
-        kwargs: dict[str, Any]
-        if isinstance(entry, str):
-            name, kwargs = entry, {}
-        elif isinstance(entry, dict) and len(entry) == 1:
-            name, kwargs = next(iter(entry.items()))
-            kwargs = dict(kwargs or {})
-        else:
-            raise ValueError(
-                f"env_wrapper entries are 'module.Class' or {{'module.Class': {{kwargs}}}}, "
-                f"got {entry!r}"
-            )
-        if not isinstance(name, str) or "." not in name:
-            raise ValueError(f"env_wrapper names a class as 'module.Class', got {name!r}")
-        parsed.append((name, kwargs))
-    return parsed
-
-
-def laser_pooling(spec: Any) -> list[tuple[str, int]]:
-    """The ``(key, pool)`` of each :class:`LaserPooling` in rl-zoo's ``env_wrapper`` ``spec``.
-
-    What a trained policy must apply to the env's observation before predicting, in order.
-    Raises ``ValueError`` for any other wrapper: a policy cannot replay it on an observation.
-    """
-    steps = []
-    for name, kwargs in parse_env_wrapper(spec):
-        if name in TRAINING_ONLY or name == RESIDUAL_ON_LASER:
-            continue
-        if name != LASER_POOLING:
-            raise ValueError(
-                f"env_wrapper {name!r}: trained policies can apply only {LASER_POOLING} "
-                "to the env's observations"
-            )
-        unknown = sorted(set(kwargs) - {"pool", "key"})
-        if unknown:
-            raise ValueError(f"env_wrapper {name!r}: unknown arguments {unknown}")
-        steps.append((str(kwargs.get("key", "laser")), int(kwargs.get("pool", 10))))
-    return steps
 
 
 def min_pool(scan: NDArray[Any], pool: int) -> NDArray[Any]:
@@ -117,7 +57,7 @@ class ActionNoise(gym.ActionWrapper[Any, Any, Any], RecordConstructorArgs):
 
     A training lever (``env_wrapper``): a policy that must stay clear of obstacles while its
     actions are perturbed learns a margin. The noise comes from the env's own generator, so a
-    seeded episode stays reproducible. Trained policies do not replay it (``laser_pooling``).
+    seeded episode stays reproducible. Trained policies do not replay it.
     """
 
     def __init__(self, env: gym.Env[Any, Any], std: float = 0.1) -> None:

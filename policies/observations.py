@@ -6,6 +6,11 @@ env made with ``obs_mode="flat"`` gives the same readings in one ``Box`` whose l
 into the ``Dict`` (:class:`FlatObservationPolicy`). Any other observation (an unknown wrapper's
 ``Box``, a missing key, another shape) is a one-line :class:`PolicyEnvMismatchError` at load
 time, not an error at the first ``predict``.
+
+A trained policy is also checked against the env it was trained for (:func:`check_env`: action
+type, laser rays, camera) and, for an SB3 model, its observation space against the env's
+(:func:`check_model_spaces`). Every policy adapter (a policy fed its observations changed:
+cut from a flat one, pooled, normalised) is an :class:`ObservationAdapter`.
 """
 
 from __future__ import annotations
@@ -18,14 +23,20 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
+from bubblerob_env import BubbleRobEnv
 from policies.base import Policy
 
 __all__ = [
     "FlatObservationPolicy",
     "ObservationAdapter",
     "PolicyEnvMismatchError",
+    "bubblerob_base",
+    "check_env",
+    "check_exact_keys",
+    "check_model_spaces",
     "check_observations",
     "dict_view",
+    "env_signature",
 ]
 
 
@@ -36,6 +47,97 @@ class PolicyEnvMismatchError(ValueError):
 def _shown(space: gym.Space[Any]) -> str:
     """A space in a few words (``str`` of a Box prints its bounds over many lines)."""
     return f"{type(space).__name__}({space.dtype}, shape {space.shape})"
+
+
+def bubblerob_base(env: gym.Env[Any, Any] | None) -> BubbleRobEnv:
+    """The BubbleRob env inside ``env`` (a default ``BubbleRobEnv()`` for None)."""
+    if env is None:
+        return BubbleRobEnv()
+    base = env.unwrapped
+    if not isinstance(base, BubbleRobEnv):
+        raise TypeError(f"expected a BubbleRob env, got {type(base).__name__}")
+    return base
+
+
+def env_signature(env: gym.Env[Any, Any]) -> dict[str, Any]:
+    """What a trained policy depends on: action type, laser rays and camera size (or None)."""
+    base = bubblerob_base(env)
+    camera = base.camera_spec
+    return {
+        "action_type": base.action_type,
+        "laser_num_rays": 0 if base.laser_spec is None else int(base.laser_spec.num_rays),
+        "camera": None if camera is None else [int(camera.height), int(camera.width)],
+    }
+
+
+def _describe(signature: dict[str, Any]) -> str:
+    camera = signature.get("camera")
+    return (
+        f"action_type={signature.get('action_type')!r}, "
+        f"laser_num_rays={signature.get('laser_num_rays')}, "
+        f"camera={'off' if not camera else 'x'.join(map(str, camera))}"
+    )
+
+
+def check_env(
+    name: str, trained: dict[str, Any], env: gym.Env[Any, Any], trained_kwargs: Any = None
+) -> None:
+    """Raise a one-line :class:`PolicyEnvMismatchError` if ``env`` differs from ``trained``."""
+    actual = env_signature(env)
+    differing = [key for key in ("action_type", "laser_num_rays", "camera") if key in trained]
+    if all(trained[key] == actual[key] for key in differing):
+        return
+    kwargs = "" if trained_kwargs is None else f" (gym.make kwargs {trained_kwargs})"
+    raise PolicyEnvMismatchError(
+        f"policy {name!r} was trained for an env with {_describe(trained)}{kwargs}, "
+        f"but this env has {_describe(actual)}: make the env it was trained for, or train one "
+        "for this env"
+    )
+
+
+def check_exact_keys(name: str, keys: list[str], space: spaces.Dict) -> None:
+    """A trained model takes exactly the env's keys: another set means another env."""
+    if sorted(keys) != sorted(space.spaces):
+        raise PolicyEnvMismatchError(
+            f"policy {name!r} takes observation keys {sorted(keys)}, "
+            f"but this env gives {sorted(space.spaces)}"
+        )
+
+
+def _pooled_shape(shape: tuple[int, ...], key: str, pooling: list[tuple[str, int]]) -> Any:
+    for pooled_key, size in pooling:
+        if pooled_key == key:
+            if not shape or shape[-1] % size:
+                return shape  # the shape check below reports the mismatch
+            shape = (*shape[:-1], shape[-1] // size)
+    return shape
+
+
+def check_model_spaces(
+    name: str,
+    trained: gym.Space[Any],
+    env: gym.Env[Any, Any],
+    space: spaces.Dict,
+    pooling: list[tuple[str, int]],
+) -> None:
+    """A model's observation space against the env's (its ``Dict``, after laser pooling)."""
+    if not isinstance(trained, spaces.Dict):  # trained on obs_mode="flat": fed as it is
+        if trained != env.observation_space:
+            raise PolicyEnvMismatchError(
+                f"policy {name} was trained on flat observations of shape {trained.shape}, but "
+                f"this env gives {type(env.observation_space).__name__} observations of shape "
+                f"{env.observation_space.shape}: make the env with obs_mode='flat' as in training"
+            )
+        return
+    check_exact_keys(name, list(trained.spaces), space)
+    for key, trained_space in trained.spaces.items():
+        given = _pooled_shape(tuple(space[key].shape or ()), key, pooling)
+        if given != trained_space.shape:
+            pooled = " after its laser pooling" if given != space[key].shape else ""
+            raise PolicyEnvMismatchError(
+                f"policy {name} takes {key} of shape {trained_space.shape}, "
+                f"but this env gives {space[key].shape}{pooled}"
+            )
 
 
 def dict_view(env: gym.Env[Any, Any], name: str) -> tuple[spaces.Dict, dict[str, slice] | None]:
@@ -85,7 +187,11 @@ def check_observations(
 
 
 class ObservationAdapter:
-    """A policy fed its observations through :meth:`adapt` (what subclasses define)."""
+    """The one policy adapter base: a policy fed its observations through :meth:`adapt`.
+
+    Subclasses define ``adapt`` (an observation, or a batch, as the wrapped policy takes it);
+    ``predict`` and ``reset`` pass through to the wrapped policy.
+    """
 
     def __init__(self, policy: Policy) -> None:
         self.policy = policy

@@ -1,4 +1,9 @@
-"""A trained policy exported by :mod:`policies.export_onnx`, run with onnxruntime (no torch)."""
+"""A trained policy exported by :mod:`policies.export_onnx`, run with onnxruntime (no torch).
+
+:func:`load_onnx` checks the export against the env (the env it was trained for, recorded in its
+metadata, and the observation keys and shapes it takes) and replays a residual on the gap
+follower.
+"""
 
 from __future__ import annotations
 
@@ -6,10 +11,16 @@ import json
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["OnnxPolicy", "read_metadata"]
+from bubblerob_env.extras import MissingExtraError
+from policies.base import Policy
+from policies.observations import check_env, check_exact_keys, check_observations
+from policies.residual import on_gap_follower
+
+__all__ = ["METADATA_KEY", "OnnxPolicy", "load_onnx", "read_metadata"]
 
 METADATA_KEY = "bubblerob"
 
@@ -18,7 +29,7 @@ def _session(path: Path) -> Any:
     try:
         import onnxruntime as ort
     except ModuleNotFoundError:
-        raise SystemExit(
+        raise MissingExtraError(
             f"running {path.name} needs onnxruntime, from the [demo] extra: "
             "pip install 'bubblerob[demo]'"
         ) from None
@@ -77,3 +88,23 @@ class OnnxPolicy:
 
     def reset(self) -> None:
         """Nothing to forget: the policy is stateless."""
+
+
+def load_onnx(
+    path: Path, env: gym.Env[Any, Any] | None, name: str, space: gym.spaces.Dict | None
+) -> Policy:
+    """The export ``path`` as a policy for ``env`` (whose ``Dict`` space is ``space``), checked.
+
+    Fed ``Dict`` observations.
+    """
+    policy = OnnxPolicy(path)
+    trained = policy.metadata.get("env")
+    if env is not None and trained is not None:
+        check_env(name, trained, env, policy.metadata.get("env_kwargs"))
+    if space is not None:
+        check_exact_keys(name, list(policy.input_names), space)
+        check_observations(name, policy.observation_shapes, space)
+    residual = policy.metadata.get("residual")
+    if residual is None:
+        return policy
+    return on_gap_follower(policy, env, space, float(residual["scale"]))

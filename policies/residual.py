@@ -10,8 +10,9 @@ drive faster where the scan allows it.
 Training wraps the env in :class:`ResidualOnLaser` through rl-zoo's ``env_wrapper`` (listed
 *before* any :class:`~bubblerob_env.wrappers.LaserPooling`: the gap follower reads the full scan,
 the network the pooled one). A trained model replays it with :class:`ResidualPolicy`:
-``load_policy`` does so for an SB3 ``.zip`` whose run's ``config.yml`` lists the wrapper, and for
-an ONNX export whose metadata records ``residual`` (the export writes it).
+``load_policy`` does so for an SB3 ``.zip`` whose run's ``config.yml`` lists the wrapper
+(:func:`policies.runs.residual_scale`), and for an ONNX export whose metadata records
+``residual`` (the export writes it).
 """
 
 from __future__ import annotations
@@ -23,44 +24,30 @@ import numpy as np
 from gymnasium.utils import RecordConstructorArgs
 from numpy.typing import NDArray
 
-from bubblerob_env.wrappers import RESIDUAL_ON_LASER, parse_env_wrapper
 from policies.base import Observation, Policy
+from policies.builtin import builtin_policy, controller
+from policies.observations import bubblerob_base
 
 __all__ = [
     "RESIDUAL_ON_LASER",
     "ResidualOnLaser",
     "ResidualPolicy",
+    "check_scale",
     "combine",
-    "residual_scale",
-    "without_residual",
+    "on_gap_follower",
 ]
 
+RESIDUAL_ON_LASER = "policies.residual.ResidualOnLaser"
+"""How rl-zoo's ``env_wrapper`` names :class:`ResidualOnLaser` (``policies.runs.residual_scale``
+reads its ``scale``)."""
 
-def _check_scale(scale: Any) -> float:
+
+def check_scale(scale: Any) -> float:
+    """``scale`` as a float; ``ValueError`` unless it is in (0, 2]."""
     value = float(scale)
     if not 0.0 < value <= 2.0:
         raise ValueError(f"residual scale must be in (0, 2], got {scale!r}")
     return value
-
-
-def residual_scale(env_wrapper: Any) -> float | None:
-    """The ``scale`` of a :class:`ResidualOnLaser` in rl-zoo's ``env_wrapper``, or None."""
-    for name, kwargs in parse_env_wrapper(env_wrapper):
-        if name == RESIDUAL_ON_LASER:
-            unknown = sorted(set(kwargs) - {"scale"})
-            if unknown:
-                raise ValueError(f"env_wrapper {name!r}: unknown arguments {unknown}")
-            return _check_scale(kwargs.get("scale", 0.5))
-    return None
-
-
-def without_residual(env_wrapper: Any) -> list[dict[str, dict[str, Any]]]:
-    """rl-zoo's ``env_wrapper`` without its :class:`ResidualOnLaser` (the batch applies it)."""
-    return [
-        {name: kwargs}
-        for name, kwargs in parse_env_wrapper(env_wrapper)
-        if name != RESIDUAL_ON_LASER
-    ]
 
 
 def combine(base: NDArray[Any], residual: NDArray[Any], scale: float) -> NDArray[np.float32]:
@@ -77,12 +64,10 @@ class ResidualOnLaser(gym.ActionWrapper[Any, Any, Any], RecordConstructorArgs):
     """
 
     def __init__(self, env: gym.Env[Any, Any], scale: float = 0.5) -> None:
-        from policies.loading import load_policy
-
         RecordConstructorArgs.__init__(self, scale=scale)
         gym.ActionWrapper.__init__(self, env)
-        self.scale = _check_scale(scale)
-        self.base = load_policy("laser", env)
+        self.scale = check_scale(scale)
+        self.base = builtin_policy("laser", env)
         self._observation: Any = None
 
     def reset(self, **kwargs: Any) -> tuple[Any, dict[str, Any]]:
@@ -114,7 +99,7 @@ class ResidualPolicy:
     def __init__(self, learnt: Policy, base: Policy, scale: float) -> None:
         self.learnt = learnt
         self.base = base
-        self.scale = _check_scale(scale)
+        self.scale = check_scale(scale)
 
     def predict(
         self,
@@ -132,3 +117,13 @@ class ResidualPolicy:
         """Nothing to forget: both parts are stateless."""
         self.learnt.reset()
         self.base.reset()
+
+
+def on_gap_follower(
+    learnt: Policy, env: gym.Env[Any, Any] | None, space: gym.spaces.Dict | None, scale: float
+) -> ResidualPolicy:
+    """``learnt``, a residual trained on the gap follower, with the gap follower for ``env``.
+
+    Takes ``Dict`` observations (``space``: the env's, None: unchecked).
+    """
+    return ResidualPolicy(learnt, controller("laser", bubblerob_base(env), space, 0), scale)

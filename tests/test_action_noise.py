@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 import bubblerob_env  # noqa: F401
-from bubblerob_env.wrappers import ActionNoise, laser_pooling
+from bubblerob_env.wrappers import ActionNoise
+from policies.runs import laser_pooling
 
 
 def _wheel_speeds(env: gym.Env, seed: int, steps: int = 5) -> np.ndarray:

@@ -12,9 +12,11 @@ import pytest
 import yaml
 
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
-from bubblerob_env.wrappers import LaserPooling, laser_pooling, min_pool, parse_env_wrapper
+from bubblerob_env.wrappers import LaserPooling, min_pool
 from policies import load_policy
-from policies.loading import NormalizedPolicy, PolicyEnvMismatchError, PooledPolicy
+from policies.observations import PolicyEnvMismatchError
+from policies.runs import laser_pooling, parse_env_wrapper
+from policies.sb3_policy import NormalizedPolicy, PooledPolicy
 
 POOLING = {"bubblerob_env.wrappers.LaserPooling": {"pool": 10}}
 TOLERANCE = 1e-5
@@ -136,7 +138,7 @@ def test_policies_replay_only_laser_pooling():
 
 def test_wrapper_class_applies_the_list_in_order():
     pytest.importorskip("stable_baselines3")
-    from train.train import wrapper_class
+    from train.zoo import wrapper_class
 
     assert wrapper_class(None) is None
     wrap = wrapper_class([POOLING, {"bubblerob_env.wrappers.LaserPooling": {"pool": 3}}])
@@ -150,7 +152,7 @@ def test_batched_vec_env_refuses_a_wrapper_that_is_not_an_observation_wrapper(tm
     # LaserPooling is applied to the whole batch (tests/test_sb3_vec_env.py); a wrapper that
     # changes more than observations cannot be, and is named.
     pytest.importorskip("stable_baselines3")
-    from train.train import train
+    from train import train
 
     with pytest.raises(ValueError, match="observation wrappers only, not EpisodeSuccess"):
         train(
@@ -167,7 +169,7 @@ def test_batched_vec_env_refuses_a_wrapper_that_is_not_an_observation_wrapper(tm
 def pooled_run(tmp_path_factory):
     """A few hundred PPO steps trained behind LaserPooling through ``train``."""
     pytest.importorskip("stable_baselines3")
-    from train.train import train
+    from train import train
 
     out = tmp_path_factory.mktemp("pooled")
     train(

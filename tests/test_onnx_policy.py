@@ -14,14 +14,11 @@ import pytest
 from policies import load_policy
 from policies.base import Policy
 from policies.export_onnx import sha256
-from policies.loading import (
-    SHIPPED_POLICIES,
-    PolicyEnvMismatchError,
-    PooledPolicy,
-    recorded_pooling,
-)
+from policies.loading import SHIPPED_POLICIES, PolicyEnvMismatchError
 from policies.onnx_policy import OnnxPolicy
 from policies.residual import ResidualPolicy
+from policies.runs import recorded_pooling
+from policies.sb3_policy import PooledPolicy
 
 ROOT = Path(__file__).resolve().parents[1]
 TRAINED = ROOT / "policies" / "trained"

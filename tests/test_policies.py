@@ -14,7 +14,8 @@ from policies import BUILTIN_POLICIES, load_policy
 from policies.evaluation import DEFAULT_EVAL_SEED, run_episode, summarize
 from policies.protocol import VALIDATION
 from train import load_hyperparams
-from train.train import DEFAULT_TORCH_THREADS, DEFAULT_VEC_ENV
+from train.envs import DEFAULT_VEC_ENV
+from train.trainer import DEFAULT_TORCH_THREADS
 
 TRAINED_DIR = Path(__file__).resolve().parents[1] / "policies" / "trained"
 

@@ -15,7 +15,8 @@ import pytest
 
 from bubblerob_env.wrappers import LaserPooling
 from policies import load_policy
-from policies.residual import ResidualOnLaser, ResidualPolicy, residual_scale
+from policies.residual import ResidualOnLaser, ResidualPolicy
+from policies.runs import residual_scale
 
 RESIDUAL = "policies.residual.ResidualOnLaser"
 CONFIG = f"""BubbleRob-v0:
@@ -101,7 +102,8 @@ def test_the_native_batch_applies_the_residual_as_each_env_does() -> None:
     pytest.importorskip("stable_baselines3")
     from stable_baselines3.common.env_util import make_vec_env
 
-    from train.train import batched_envs, wrapper_class
+    from train.envs import batched_envs
+    from train.zoo import wrapper_class
 
     spec = [{RESIDUAL: {"scale": 0.5}}, {"bubblerob_env.wrappers.LaserPooling": {"pool": 10}}]
     batched = batched_envs("BubbleRob-v0", 3, 0, {}, spec)

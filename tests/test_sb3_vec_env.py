@@ -11,7 +11,7 @@ from stable_baselines3.common.env_checker import check_env  # noqa: E402
 from stable_baselines3.common.env_util import make_vec_env  # noqa: E402
 
 import bubblerob_env  # noqa: E402,F401
-from bubblerob_env.sb3 import BubbleRobSB3VecEnv  # noqa: E402
+from train.sb3_vec import BubbleRobSB3VecEnv  # noqa: E402
 
 
 def _same(a, b) -> bool:
@@ -80,7 +80,7 @@ def test_single_env_passes_sb3_check_env():
 
 
 def test_train_with_the_native_batch(tmp_path):
-    from train.train import train
+    from train import train
 
     final = train(
         "ppo",
@@ -96,23 +96,24 @@ def test_train_with_the_native_batch(tmp_path):
         vec_env="batched",
     )
     assert final.is_file() and (tmp_path / "best_model.zip").is_file()
-    from train.train import _batched_envs
+    from train.envs import native_batch
 
     with pytest.raises(ValueError, match="BubbleRob-v0 only"):
-        _batched_envs("HalfCheetah-v5", 2, 0, {})
+        native_batch("HalfCheetah-v5", 2, 0, {})
 
 
 def test_batched_observation_wrappers_match_make_vec_env():
     # LaserPooling on the whole batch against SB3's make_vec_env wrapping each env: the same
     # pooled observations, terminal observations included, bit for bit.
-    from bubblerob_env.sb3 import VecObservationWrapper
     from bubblerob_env.wrappers import LaserPooling
-    from train.train import _batched_envs, wrapper_class
+    from train.envs import native_batch
+    from train.sb3_vec import VecObservationWrapper
+    from train.zoo import wrapper_class
 
     n, limit = 3, 20
     kwargs = {"max_episode_steps": limit}
     wrap = wrapper_class([{"bubblerob_env.wrappers.LaserPooling": {"pool": 10}}])
-    ours = _batched_envs("BubbleRob-v0", n, 5, kwargs, wrap)
+    ours = native_batch("BubbleRob-v0", n, 5, kwargs, wrap)
     assert isinstance(ours, VecObservationWrapper)
     theirs = make_vec_env(
         "BubbleRob-v0", n_envs=n, seed=5, env_kwargs=kwargs, wrapper_class=LaserPooling
@@ -134,8 +135,9 @@ def test_batched_observation_wrappers_match_make_vec_env():
 
 
 def test_batched_refuses_wrappers_that_are_not_observation_wrappers():
-    from train.train import _batched_envs, wrapper_class
+    from train.envs import native_batch
+    from train.zoo import wrapper_class
 
     wrap = wrapper_class("bubblerob_env.wrappers.EpisodeSuccess")
     with pytest.raises(ValueError, match="observation wrappers only, not EpisodeSuccess"):
-        _batched_envs("BubbleRob-v0", 2, 0, {}, wrap)
+        native_batch("BubbleRob-v0", 2, 0, {}, wrap)

@@ -12,8 +12,8 @@ import pytest
 import yaml
 
 from policies import load_policy
-from policies.loading import NormalizedPolicy, PooledPolicy
 from policies.residual import ResidualPolicy
+from policies.sb3_policy import NormalizedPolicy, PooledPolicy
 from train import load_hyperparams
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -116,7 +116,7 @@ def test_best_model_is_the_safest_then_the_highest_return(tmp_path):
     from stable_baselines3.common.callbacks import EvalCallback
     from stable_baselines3.common.env_util import make_vec_env
 
-    from train.train import keep_best_model
+    from train.validation import keep_best_model
 
     envs = make_vec_env("BubbleRob-v0", n_envs=1, seed=0)
     model = PPO("MultiInputPolicy", envs, n_steps=64, batch_size=64, seed=0, device="cpu")
@@ -144,7 +144,7 @@ def test_hyperparameter_files_hold_only_rl_zoo3_keys():
 
 
 def test_project_settings_in_the_yaml_are_refused_with_the_option_to_use(tmp_path):
-    from train.train import train
+    from train import train
 
     with pytest.raises(ValueError, match=r"'vec_env' is not an rl_zoo3 hyperparameter.*--vec-env"):
         train("ppo", "BubbleRob-v0", tmp_path, overrides={"vec_env": "dummy"})
@@ -225,7 +225,7 @@ def test_obstacle_curriculum_grows_the_arenas_obstacles():
     from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.env_util import make_vec_env
 
-    from train.train import _configured_callbacks
+    from train.zoo import configured_callbacks
 
     class CountObstacles(BaseCallback):
         counts: list[list[int]] = []
@@ -239,7 +239,7 @@ def test_obstacle_curriculum_grows_the_arenas_obstacles():
             return True
 
     envs = make_vec_env("BubbleRob-v0", n_envs=4, seed=0, env_kwargs={"max_episode_steps": 8})
-    (curriculum,) = _configured_callbacks(
+    (curriculum,) = configured_callbacks(
         [{"train.callbacks.ObstacleCurriculum": {"start": [0, 0], "ramp_fraction": 0.5}}]
     )
     model = PPO("MultiInputPolicy", envs, n_steps=16, batch_size=64, n_epochs=1, seed=0)
@@ -254,7 +254,7 @@ def test_obstacle_curriculum_grows_the_arenas_obstacles():
 
 def test_curriculum_and_frame_stack_train_and_load_refuses_stacked_models(tmp_path):
     from policies import load_policy
-    from train.train import train
+    from train import train
 
     overrides = {
         "n_steps": 64,
@@ -284,7 +284,7 @@ def test_camera_only_training_evaluates_like_it_trains(tmp_path):
     # wrapper, so EvalCallback does not warn and VecNormalize syncs along the same chain.
     import warnings
 
-    from train.train import train
+    from train import train
 
     overrides = {
         "n_steps": 32,

@@ -1,7 +1,7 @@
-"""``python -m train``: see :mod:`train.train`."""
+"""``python -m train``: a command shim (the command is :mod:`bubblerob_cli.train`)."""
 
 import sys
 
-from train.train import main
+from bubblerob_cli.train import main
 
 sys.exit(main())

@@ -7,7 +7,6 @@ evaluation after every step (a run that seems to hang). These are refused before
 
 from __future__ import annotations
 
-import argparse
 import math
 from typing import Any
 
@@ -41,8 +40,10 @@ def _is_number(value: object) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
-def check_train_arguments(args: argparse.Namespace) -> None:
+def check_train_arguments(args: Any) -> None:
     """The options of ``python -m train`` / ``bubblerob train`` that need no SB3 to check.
+
+    ``args`` has the options' values as attributes (``timesteps``, ``n_envs``, ``seed``, ...).
 
     Raises:
         TrainArgumentError: The first bad option.

@@ -16,8 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from policies.loading import NORMALIZATION_SUFFIX
 from policies.protocol import TRAINING, VALIDATION
+from policies.runs import BEST_MODEL, normalization_path
 
 __all__ = [
     "check_training_seeds",
@@ -64,10 +64,10 @@ def keep_best_model(out: Path) -> Any:
             score = evaluation_score(evaluation.evaluations_successes, evaluation.last_mean_reward)
             if score > self.best:
                 self.best = score
-                self.model.save(out / "best_model")
+                self.model.save(out / BEST_MODEL)
                 normalizer = self.model.get_vec_normalize_env()
                 if normalizer is not None:
-                    normalizer.save(str(out / f"best_model{NORMALIZATION_SUFFIX}"))
+                    normalizer.save(str(normalization_path(out / BEST_MODEL)))
             return True
 
     return KeepBestModel()

@@ -10,8 +10,8 @@ import yaml
 from ray_helpers import as_json, bubblerob_in_netns, need_netns
 
 from bubblerob_cli.main import main as bubblerob
+from bubblerob_cli.ray.sweep import VALIDATION_SEED
 from policies.evaluation import evaluate
-from train.sweep import VALIDATION_SEED
 
 TINY = [
     "train", "--timesteps", "128", "--eval-freq", "64", "--eval-episodes", "1", "--n-envs", "1",

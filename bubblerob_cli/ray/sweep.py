@@ -17,7 +17,11 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
+from bubblerob_env.extras import require_extra
 from policies.protocol import VALIDATION
+from policies.runs import BEST_MODEL, SWEEP_FILE, run_env_kwargs
+from train.checks import MAX_SEED
+from train.trainer import train
 
 __all__ = [
     "VALIDATION_SEED",
@@ -36,8 +40,6 @@ the best checkpoint's luck on those does not pick the run. Never test seeds."""
 
 def seed_list(text: str) -> list[int]:
     """``--seeds``: distinct ints from 0 to 2^32 - 1, comma separated."""
-    from train.checks import MAX_SEED
-
     try:
         seeds = [int(part) for part in text.split(",")]
     except ValueError:
@@ -77,10 +79,8 @@ def train_run(out: str, seed: int, settings: dict[str, Any]) -> str:
 
     ``best_model.zip`` when an evaluation during training saved one, else the final model.
     """
-    from train.train import train
-
     final = train(out=Path(out), seed=seed, progress_bar=False, **settings)
-    best = Path(out) / "best_model.zip"
+    best = Path(out) / BEST_MODEL
     return str(best if best.is_file() else final)
 
 
@@ -104,35 +104,32 @@ def _settings(args: argparse.Namespace, overrides: dict[str, Any], command: str)
     }
 
 
-def _validation_env_kwargs(run: Path, env_id: str) -> dict[str, Any]:
-    """The env kwargs the run trained with (its ``config.yml``): its models expect that env."""
-    import yaml
-
-    config = yaml.safe_load((run / "config.yml").read_text())[env_id]
-    return dict(config.get("env_kwargs") or {})
+def _usage_error(args: argparse.Namespace) -> str | None:
+    """What is wrong with ``--ray``, ``--seeds`` and ``--validation-episodes`` (None: nothing)."""
+    if args.ray is None or args.seeds is None:
+        return "--ray and --seeds go together (e.g. --ray local --seeds 0,1,2)"
+    if args.validation_episodes < 1:
+        return f"--validation-episodes must be >= 1, got {args.validation_episodes}"
+    return None
 
 
 def run_sweep(
     args: argparse.Namespace, overrides: dict[str, Any], out: Path, command: str, program: str
 ) -> int:
     """Train ``args.seeds`` as Ray tasks into ``out/seed_<k>``; evaluate and compare them."""
-    from bubblerob_env.extras import require_extra
-    from policies.distributed import TASK_RETRIES, command_errors, gather, ray_session
-
-    if args.ray is None or args.seeds is None:
-        print(
-            f"{program}: --ray and --seeds go together (e.g. --ray local --seeds 0,1,2)",
-            file=sys.stderr,
-        )
-        return 2
-    if args.validation_episodes < 1:
-        print(
-            f"{program}: --validation-episodes must be >= 1, got {args.validation_episodes}",
-            file=sys.stderr,
-        )
+    problem = _usage_error(args)
+    if problem is not None:
+        print(f"{program}: {problem}", file=sys.stderr)
         return 2
     require_extra("ray", f"{program} --ray")
-    from policies.distributed import check_address, evaluate_on_ray
+    from bubblerob_cli.ray.evaluate import evaluate_on_ray
+    from bubblerob_cli.ray.session import (
+        TASK_RETRIES,
+        check_address,
+        command_errors,
+        gather,
+        ray_session,
+    )
 
     runs = [out / f"seed_{seed}" for seed in args.seeds]
     settings = _settings(args, overrides, command)
@@ -151,7 +148,7 @@ def run_sweep(
                 lambda model: print(f"trained {model} ({time.perf_counter() - start:.0f} s)"),
             )
             # All runs share one config, hence one env: one evaluation, every model at once.
-            env_kwargs = _validation_env_kwargs(runs[0], args.env)
+            env_kwargs = run_env_kwargs(runs[0], args.env)
             results, _ = evaluate_on_ray(
                 models, args.validation_episodes, VALIDATION_SEED, args.env, env_kwargs,
                 address=args.ray,
@@ -175,4 +172,4 @@ def _report(results: list[Any], runs: list[Path], seeds: list[int], out: Path) -
         ],
         "best": {"seed": seeds[best], "model": results[best].policy},
     }
-    (out / "sweep.json").write_text(json.dumps(record, indent=2) + "\n")
+    (out / SWEEP_FILE).write_text(json.dumps(record, indent=2) + "\n")

@@ -7,7 +7,8 @@ conventions on an episode's last step: ``info["terminal_observation"]``,
 already the next episode's first (SB3 resets in the same step); and, as SB3's ``Monitor`` adds,
 ``info["episode"]`` with the episode's return ``r``, length ``l`` and time ``t``, so that SB3's
 logs and ``EvalCallback``'s normalisation sync work without another wrapper. Used by
-``python -m train --vec-env batched``. Needs ``stable-baselines3`` (the ``train`` extra).
+``python -m train --vec-env batched``. Needs ``stable-baselines3`` (the ``train`` extra). Was
+``bubblerob_env.sb3``: the env package imports no SB3.
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ __all__ = ["BubbleRobSB3VecEnv", "VecObservationWrapper"]
 
 
 class BubbleRobSB3VecEnv(VecEnv):
-    """``num_envs`` BubbleRobs for SB3, stepped by :class:`~.vector.BubbleRobVectorEnv`.
+    """``num_envs`` BubbleRobs for SB3, stepped by a ``BubbleRobVectorEnv``.
 
     Args:
         num_envs: Number of robots.

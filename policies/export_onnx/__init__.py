@@ -30,11 +30,9 @@ pooling baked in and the source files' SHA-256, so
 
 from __future__ import annotations
 
-import argparse
 import hashlib
 import json
 import pickle
-import sys
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
@@ -42,13 +40,20 @@ from typing import Any
 
 import numpy as np
 
+from policies.observations import env_signature
 from policies.onnx_policy import METADATA_KEY
+from policies.runs import (
+    SHIPPED_MODEL,
+    normalization_path,
+    recorded_config,
+    recorded_env,
+    recorded_pooling,
+    residual_scale,
+)
+from policies.sb3_policy import sb3_algorithm
 
-__all__ = ["METADATA_KEY", "export_onnx", "main"]
+__all__ = ["METADATA_KEY", "OPSET", "SHIPPED_MODEL", "export_onnx", "sha256"]
 
-TRAINED_DIR = Path(__file__).resolve().parent / "trained"
-SHIPPED_MODEL = TRAINED_DIR / "ppo_bubblerob_v0.zip"
-NORMALIZATION_SUFFIX = "_vecnormalize.pkl"
 OPSET = 17
 
 
@@ -57,22 +62,8 @@ def sha256(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
-def _recorded_env(model_path: Path) -> tuple[str, dict[str, Any]]:
-    """Env id and kwargs from the run's ``config.yml`` beside the model (default env if none)."""
-    config = model_path.with_name("config.yml")
-    if not config.is_file():
-        return "BubbleRob-v0", {}
-    import yaml
-
-    table = yaml.safe_load(config.read_text()) or {}
-    env_id = next(iter(table), "BubbleRob-v0")
-    return env_id, dict((table.get(env_id) or {}).get("env_kwargs") or {})
-
-
 def _load_model(path: Path) -> Any:
     from stable_baselines3 import PPO, SAC
-
-    from policies.loading import sb3_algorithm
 
     return (SAC if sb3_algorithm(path) == "SAC" else PPO).load(path, device="cpu")
 
@@ -159,20 +150,18 @@ def export_onnx(model_path: Path, out: Path | None = None) -> Path:
     import torch
 
     import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
-    from policies.loading import _recorded_config, env_signature, recorded_pooling
-    from policies.residual import residual_scale
 
     model_path = Path(model_path)
     out = model_path.with_suffix(".onnx") if out is None else Path(out)
     model = _load_model(model_path)
-    stats_path = model_path.with_name(model_path.stem + NORMALIZATION_SUFFIX)
+    stats_path = normalization_path(model_path)
     normalizer = None
     if stats_path.is_file():
         with stats_path.open("rb") as handle:
             normalizer = pickle.load(handle)  # noqa: S301 - our own training output
     pooling = recorded_pooling(model_path)
     module, keys = _build_module(model, normalizer, pooling)
-    env_id, env_kwargs = _recorded_env(model_path)
+    env_id, env_kwargs = recorded_env(model_path)
     env = gym.make(env_id, **env_kwargs)
     # The graph's inputs are the env's observations (its full scan when the model was trained
     # behind LaserPooling); without pooling they equal the model's observation space.
@@ -207,7 +196,7 @@ def export_onnx(model_path: Path, out: Path | None = None) -> Path:
     }
     if pooling:
         info["observation_pooling"] = [[key, size] for key, size in pooling]
-    scale = residual_scale((_recorded_config(model_path) or {}).get("env_wrapper"))
+    scale = residual_scale((recorded_config(model_path) or {}).get("env_wrapper"))
     if scale is not None:  # the graph's action is a correction to the gap follower's
         info["residual"] = {"base": "laser", "scale": scale}
     env.close()
@@ -220,30 +209,3 @@ def export_onnx(model_path: Path, out: Path | None = None) -> Path:
     onnx.checker.check_model(graph)
     onnx.save(graph, str(out))
     return out
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of ``python -m policies.export_onnx``."""
-    from bubblerob_cli.args import HelpFormatter
-
-    parser = argparse.ArgumentParser(
-        prog="python -m policies.export_onnx",
-        description="Export an SB3 model (+ its VecNormalize statistics) to ONNX for "
-        "onnxruntime; by default the shipped PPO policy.",
-        formatter_class=HelpFormatter,
-    )
-    parser.add_argument("model", type=Path, nargs="?", default=SHIPPED_MODEL, help="SB3 .zip")
-    parser.add_argument("--out", type=Path, help="ONNX file (default: the model's path, .onnx)")
-    args = parser.parse_args(argv)
-    from bubblerob_env.extras import require_extra
-
-    require_extra("train", "python -m policies.export_onnx")
-    if not args.model.is_file():
-        parser.error(f"model {args.model} does not exist")
-    out = export_onnx(args.model, args.out)
-    print(f"wrote {out}")
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,0 +1,40 @@
+"""``python -m policies.export_onnx``: export an SB3 model to ONNX (:mod:`policies.export_onnx`)."""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Sequence
+from pathlib import Path
+
+from bubblerob_cli.args import HelpFormatter
+from bubblerob_env.extras import require_extra
+from policies.export_onnx import SHIPPED_MODEL, export_onnx
+
+__all__ = ["PROG", "build_parser", "main"]
+
+PROG = "python -m policies.export_onnx"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Command-line arguments of ``python -m policies.export_onnx``."""
+    parser = argparse.ArgumentParser(
+        prog=PROG,
+        description="Export an SB3 model (+ its VecNormalize statistics) to ONNX for "
+        "onnxruntime; by default the shipped PPO policy.",
+        formatter_class=HelpFormatter,
+    )
+    parser.add_argument("model", type=Path, nargs="?", default=SHIPPED_MODEL, help="SB3 .zip")
+    parser.add_argument("--out", type=Path, help="ONNX file (default: the model's path, .onnx)")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``python -m policies.export_onnx``."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    require_extra("train", PROG)
+    if not args.model.is_file():
+        parser.error(f"model {args.model} does not exist")
+    out = export_onnx(args.model, args.out)
+    print(f"wrote {out}")
+    return 0

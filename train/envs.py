@@ -1,0 +1,150 @@
+"""The training and evaluation vec envs: ``make_vec_env``'s, or the native batch (``batched``).
+
+``vec_env`` says how the ``n_envs`` training envs are stepped: ``dummy`` (in this process, the
+default: with small, fast envs on a 2-core machine the inter-process round trips of
+``SubprocVecEnv`` cost more than stepping them here), ``subproc`` (one subprocess each) or
+``batched`` (:class:`train.sb3_vec.BubbleRobSB3VecEnv`, the same episodes). The evaluation env
+has one env per validation episode (``train/validation.py``), seeded from the first validation
+seed, and the same wrapper chain as training's.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from policies.builtin import builtin_policy
+from policies.protocol import VALIDATION
+from policies.runs import residual_scale, without_residual
+from train.zoo import wrapper_class
+
+__all__ = [
+    "DEFAULT_VEC_ENV",
+    "VEC_ENVS",
+    "batched_envs",
+    "native_batch",
+    "non_image_keys",
+    "training_envs",
+]
+
+VEC_ENVS = ("dummy", "subproc", "batched")
+DEFAULT_VEC_ENV = "dummy"
+"""Step the envs in the training process: on 2 cores, faster than subprocesses for this env."""
+
+
+def training_envs(
+    env_id: str, config: dict[str, Any], seed: int, eval_episodes: int, vec_env: str
+) -> tuple[Any, Any]:
+    """The training envs and the evaluation env of ``config`` (rl-zoo's hyperparameters).
+
+    Both wrapped in ``env_wrapper``, then VecNormalize (``normalize: true``; the evaluation's not
+    updated) and VecFrameStack (``frame_stack: N``), as rl_zoo3 stacks them.
+    """
+    from stable_baselines3.common.vec_env import VecFrameStack, VecNormalize
+
+    envs, eval_env = _unwrapped_envs(env_id, config, seed, eval_episodes, vec_env)
+    if config.get("normalize", False):
+        # rl-zoo's "normalize: true": running mean/std of observations (and returns for training).
+        keys = non_image_keys(envs.observation_space)
+        envs = VecNormalize(envs, gamma=float(config.get("gamma", 0.99)), norm_obs_keys=keys)
+        eval_env = VecNormalize(eval_env, training=False, norm_reward=False, norm_obs_keys=keys)
+    if config.get("frame_stack"):
+        # rl-zoo's "frame_stack: N", on top of the normalisation as rl_zoo3 stacks.
+        envs = VecFrameStack(envs, int(config["frame_stack"]))
+        eval_env = VecFrameStack(eval_env, int(config["frame_stack"]))
+    return envs, eval_env
+
+
+def _unwrapped_envs(
+    env_id: str, config: dict[str, Any], seed: int, eval_episodes: int, vec_env: str
+) -> tuple[Any, Any]:
+    """The training and evaluation envs with ``env_wrapper``, before normalisation."""
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
+
+    env_kwargs = config.get("env_kwargs") or {}
+    wrap = wrapper_class(config.get("env_wrapper"))
+    count = int(config["n_envs"])
+    vec_cls = SubprocVecEnv if count > 1 and vec_env == "subproc" else DummyVecEnv
+    if vec_env == "batched":
+        spec = config.get("env_wrapper")
+        envs = batched_envs(env_id, count, seed, env_kwargs, spec)
+        # The same wrapper chain as training's: VecNormalize's statistics are synced by walking
+        # both chains in step.
+        eval_env = batched_envs(env_id, eval_episodes, VALIDATION.start, env_kwargs, spec)
+        return envs, eval_env
+    envs = make_vec_env(
+        env_id,
+        n_envs=count,
+        seed=seed,
+        env_kwargs=env_kwargs,
+        vec_env_cls=vec_cls,
+        wrapper_class=wrap,
+    )
+    # One env per validation episode (train/validation.py), stepped in this process.
+    eval_env = make_vec_env(
+        env_id,
+        n_envs=eval_episodes,
+        seed=VALIDATION.start,
+        env_kwargs=env_kwargs,
+        wrapper_class=wrap,
+    )
+    return envs, eval_env
+
+
+def non_image_keys(space: Any) -> list[str] | None:
+    """The observation keys VecNormalize should normalise: all but images (the camera).
+
+    SB3 scales and transposes uint8 images itself; normalised, they would be a float box it
+    takes for a vector. ``None`` (all) for a space that is not a dict.
+    """
+    from gymnasium import spaces
+    from stable_baselines3.common.preprocessing import is_image_space
+
+    if not isinstance(space, spaces.Dict):
+        return None
+    return [key for key, sub in space.spaces.items() if not is_image_space(sub)]
+
+
+def batched_envs(
+    env_id: str, count: int, seed: int, env_kwargs: dict[str, Any], env_wrapper: Any = None
+) -> Any:
+    """``--vec-env batched`` with rl-zoo's ``env_wrapper`` (see :func:`native_batch`)."""
+    scale = residual_scale(env_wrapper)
+    spec = env_wrapper if scale is None else without_residual(env_wrapper)
+    return native_batch(env_id, count, seed, env_kwargs, wrapper_class(spec), scale)
+
+
+def native_batch(
+    env_id: str,
+    count: int,
+    seed: int,
+    env_kwargs: dict[str, Any],
+    wrap: Any = None,
+    scale: float | None = None,
+) -> Any:
+    """``--vec-env batched``: the native batch (threads), as ``make_vec_env`` would seed it.
+
+    An ``env_wrapper`` of observation wrappers is applied to the whole batch (``LaserPooling``);
+    a residual on the gap follower (``scale``, its wrapper left out of ``wrap``) below them.
+    """
+    import gymnasium as gym
+
+    from train.sb3_vec import BubbleRobSB3VecEnv, VecObservationWrapper
+    from train.vec_residual import VecResidualOnLaser
+
+    if env_id != "BubbleRob-v0":
+        raise ValueError(f"--vec-env batched steps BubbleRob-v0 only, not {env_id!r}")
+    envs: Any = BubbleRobSB3VecEnv(count, **env_kwargs)
+    envs.seed(seed)
+    if wrap is None:
+        return envs
+    probe = gym.make(env_id, **env_kwargs)
+    try:
+        if scale is not None:  # the residual acts on the raw batch, below the observation ones
+            envs = VecResidualOnLaser(envs, builtin_policy("laser", probe), scale)
+        return VecObservationWrapper.from_env_wrapper(envs, wrap, probe)
+    except ValueError:
+        envs.close()
+        raise
+    finally:
+        probe.close()

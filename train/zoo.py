@@ -1,0 +1,120 @@
+"""The rl-baselines3-zoo hyperparameter format: ``train/hyperparams/<algo>.yml`` and its keys.
+
+The YAML files hold only rl-baselines3-zoo hyperparameters, so that rl_zoo3 loads them as they are
+(``python -m rl_zoo3.train --algo ppo --env BubbleRob-v0 --gym-packages bubblerob_env -conf
+train/hyperparams/ppo.yml``); this project's own settings, how the envs are stepped
+(``--vec-env``) and torch's thread count (``--torch-threads``), are command-line options
+(:data:`PROJECT_SETTINGS`).
+
+rl-zoo's ``env_wrapper`` and ``callback`` keys name classes as ``"module.Class"``,
+``{"module.Class": {kwargs}}`` or a list of those (:func:`policies.runs.parse_env_wrapper`);
+``lin_<value>`` is a value decaying linearly to 0 over training.
+"""
+
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+from typing import Any
+
+from policies.runs import parse_env_wrapper
+
+__all__ = [
+    "ALGOS",
+    "HYPERPARAMS_DIR",
+    "NOT_ALGO_KWARGS",
+    "PROJECT_SETTINGS",
+    "algo_kwargs",
+    "configured_callbacks",
+    "load_hyperparams",
+    "named_classes",
+    "reject_project_settings",
+    "schedules",
+    "wrapper_class",
+]
+
+ALGOS = ("ppo", "sac")
+HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
+NOT_ALGO_KWARGS = (
+    "normalize",
+    "n_timesteps",
+    "n_envs",
+    "env_kwargs",
+    "policy",
+    "env_wrapper",
+    "frame_stack",
+    "callback",
+)
+"""rl-zoo keys that are not keyword arguments of the SB3 algorithm (``seed`` neither)."""
+PROJECT_SETTINGS = {"vec_env": "--vec-env", "torch_threads": "--torch-threads"}
+"""Settings of this project's trainer that rl_zoo3 does not know: command-line options, not YAML."""
+
+
+def load_hyperparams(algo: str, env_id: str) -> dict[str, Any]:
+    """The hyperparameters of ``algo`` for ``env_id`` from ``hyperparams/<algo>.yml``."""
+    if algo not in ALGOS:
+        raise ValueError(f"unknown algo {algo!r}; choose one of {list(ALGOS)}")
+    import yaml
+
+    table = yaml.safe_load((HYPERPARAMS_DIR / f"{algo}.yml").read_text())
+    if env_id not in table:
+        raise ValueError(f"no {algo} hyperparameters for {env_id!r}; known: {sorted(table)}")
+    return dict(table[env_id])
+
+
+def reject_project_settings(config: dict[str, Any]) -> None:
+    """``ValueError`` for a project setting (:data:`PROJECT_SETTINGS`) among hyperparameters."""
+    for key, option in PROJECT_SETTINGS.items():
+        if key in config:
+            raise ValueError(
+                f"{key!r} is not an rl_zoo3 hyperparameter: use the command-line option {option}"
+            )
+
+
+def named_classes(spec: Any) -> list[tuple[Any, dict[str, Any]]]:
+    """rl-zoo's ``"module.Class"`` entries (``env_wrapper``, ``callback``): ``(class, kwargs)``."""
+    classes = []
+    for name, kwargs in parse_env_wrapper(spec):
+        module, _, cls_name = name.rpartition(".")
+        classes.append((getattr(importlib.import_module(module), cls_name), kwargs))
+    return classes
+
+
+def wrapper_class(spec: Any) -> Any:
+    """rl-zoo's ``env_wrapper`` as one callable ``env -> wrapped env`` (``None`` without one).
+
+    ``spec`` is a string ``"module.Class"``, a one-key mapping ``{"module.Class": {kwargs}}`` or
+    a list of those, applied first to last, as rl_zoo3 applies them.
+    """
+    classes = named_classes(spec)
+    if not classes:
+        return None
+
+    def wrap(env: Any) -> Any:
+        for cls, kwargs in classes:
+            env = cls(env, **kwargs)
+        return env
+
+    return wrap
+
+
+def configured_callbacks(spec: Any) -> list[Any]:
+    """rl-zoo's ``callback`` key (the ``env_wrapper`` forms): the callbacks it names."""
+    return [cls(**kwargs) for cls, kwargs in named_classes(spec)]
+
+
+def schedules(config: dict[str, Any]) -> dict[str, Any]:
+    """rl-zoo's ``lin_<value>``: a value decaying linearly to 0 over training (for lr, clip)."""
+    resolved = {}
+    for key, value in config.items():
+        if isinstance(value, str) and value.startswith("lin_"):
+            start = float(value[len("lin_") :])
+            resolved[key] = lambda progress_remaining, start=start: progress_remaining * start
+        else:
+            resolved[key] = value
+    return resolved
+
+
+def algo_kwargs(config: dict[str, Any]) -> dict[str, Any]:
+    """The keyword arguments of the SB3 algorithm in ``config``, schedules resolved."""
+    return schedules({k: v for k, v in config.items() if k not in (*NOT_ALGO_KWARGS, "seed")})
