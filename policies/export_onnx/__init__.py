@@ -68,6 +68,40 @@ def _load_model(path: Path) -> Any:
     return (SAC if sb3_algorithm(path) == "SAC" else PPO).load(path, device="cpu")
 
 
+def _normalization_stats(normalizer: Any) -> dict[str, tuple[Any, Any, float]]:
+    """VecNormalize's ``(mean, std, clip)`` of each normalised key, as float64 tensors."""
+    import torch
+
+    stats: dict[str, tuple[Any, Any, float]] = {}
+    if normalizer is not None and normalizer.norm_obs:
+        for key in normalizer.norm_obs_keys:
+            rms = normalizer.obs_rms[key]
+            mean = torch.as_tensor(np.asarray(rms.mean, dtype=np.float64))
+            var = np.asarray(rms.var, dtype=np.float64)
+            std = torch.as_tensor(np.sqrt(var + normalizer.epsilon))
+            stats[key] = (mean, std, float(normalizer.clip_obs))
+    return stats
+
+
+def _model_inputs(
+    keys: list[str],
+    observations: Sequence[Any],
+    pooling: Sequence[tuple[str, int]],
+    stats: dict[str, tuple[Any, Any, float]],
+) -> dict[str, Any]:
+    """The env's observation tensors (in ``keys`` order) pooled and normalised as in training."""
+    obs = {}
+    for key, value in zip(keys, observations, strict=True):
+        for pooled_key, size in pooling:
+            if pooled_key == key:  # LaserPooling: min over groups of `size` rays
+                value = value.unflatten(-1, (-1, size)).amin(dim=-1)
+        if key in stats:
+            mean, std, clip = stats[key]
+            value = ((value.double() - mean) / std).clamp(-clip, clip).float()
+        obs[key] = value
+    return obs
+
+
 def _build_module(
     model: Any, normalizer: Any, pooling: Sequence[tuple[str, int]] = ()
 ) -> tuple[Any, list[str]]:
@@ -90,14 +124,7 @@ def _build_module(
     action_space = model.action_space
     low = torch.as_tensor(action_space.low, dtype=torch.float32)
     high = torch.as_tensor(action_space.high, dtype=torch.float32)
-    stats: dict[str, tuple[Any, Any, float]] = {}
-    if normalizer is not None and normalizer.norm_obs:
-        for key in normalizer.norm_obs_keys:
-            rms = normalizer.obs_rms[key]
-            mean = torch.as_tensor(np.asarray(rms.mean, dtype=np.float64))
-            var = np.asarray(rms.var, dtype=np.float64)
-            std = torch.as_tensor(np.sqrt(var + normalizer.epsilon))
-            stats[key] = (mean, std, float(normalizer.clip_obs))
+    stats = _normalization_stats(normalizer)
     is_actor_critic = isinstance(policy, ActorCriticPolicy)
     is_gaussian = (
         is_actor_critic
@@ -111,15 +138,7 @@ def _build_module(
             self.policy = policy
 
         def forward(self, *observations: Any) -> Any:
-            obs = {}
-            for key, value in zip(keys, observations, strict=True):
-                for pooled_key, size in pooling:
-                    if pooled_key == key:  # LaserPooling: min over groups of `size` rays
-                        value = value.unflatten(-1, (-1, size)).amin(dim=-1)
-                if key in stats:
-                    mean, std, clip = stats[key]
-                    value = ((value.double() - mean) / std).clamp(-clip, clip).float()
-                obs[key] = value
+            obs = _model_inputs(keys, observations, pooling, stats)
             if is_gaussian:
                 # The Gaussian's mean, as policy(obs, deterministic=True) computes it, without
                 # building the distribution (whose argument checks the tracer would freeze).
@@ -146,7 +165,6 @@ def _build_module(
 def export_onnx(model_path: Path, out: Path | None = None) -> Path:
     """Export ``model_path`` (and ``<stem>_vecnormalize.pkl`` beside it, if any) to ONNX."""
     import gymnasium as gym
-    import onnx
     import torch
 
     import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
@@ -169,20 +187,7 @@ def export_onnx(model_path: Path, out: Path | None = None) -> Path:
     dummy = tuple(
         torch.as_tensor(np.stack([obs_space[key].sample()] * 2)) for key in keys
     )  # a batch of 2, so the batch axis stays symbolic
-    out.parent.mkdir(parents=True, exist_ok=True)
-    with torch.no_grad(), warnings.catch_warnings():
-        # The TorchScript exporter needs no onnxscript; the new one would give the same graph.
-        warnings.simplefilter("ignore", DeprecationWarning)
-        torch.onnx.export(
-            module,
-            dummy,
-            str(out),
-            input_names=keys,
-            output_names=["action"],
-            dynamic_axes={**{key: {0: "batch"} for key in keys}, "action": {0: "batch"}},
-            opset_version=OPSET,
-            dynamo=False,
-        )
+    _trace(module, dummy, keys, out)
     info: dict[str, Any] = {
         "algo": type(model).__name__,
         "env_id": env_id,
@@ -200,6 +205,34 @@ def export_onnx(model_path: Path, out: Path | None = None) -> Path:
     if scale is not None:  # the graph's action is a correction to the gap follower's
         info["residual"] = {"base": "laser", "scale": scale}
     env.close()
+    _write_metadata(out, info)
+    return out
+
+
+def _trace(module: Any, dummy: tuple[Any, ...], keys: list[str], out: Path) -> None:
+    """Write ``module``'s graph, traced on ``dummy``, to ``out``: inputs ``keys``, output action."""
+    import torch
+
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with torch.no_grad(), warnings.catch_warnings():
+        # The TorchScript exporter needs no onnxscript; the new one would give the same graph.
+        warnings.simplefilter("ignore", DeprecationWarning)
+        torch.onnx.export(
+            module,
+            dummy,
+            str(out),
+            input_names=keys,
+            output_names=["action"],
+            dynamic_axes={**{key: {0: "batch"} for key in keys}, "action": {0: "batch"}},
+            opset_version=OPSET,
+            dynamo=False,
+        )
+
+
+def _write_metadata(out: Path, info: dict[str, Any]) -> None:
+    """Record ``info`` (JSON) in the ONNX file ``out`` under :data:`METADATA_KEY`; check it."""
+    import onnx
+
     graph = onnx.load(str(out))
     graph.producer_name = "bubblerob policies.export_onnx"
     graph.producer_version = ""
@@ -208,4 +241,3 @@ def export_onnx(model_path: Path, out: Path | None = None) -> Path:
     entry.key, entry.value = METADATA_KEY, json.dumps(info, sort_keys=True)
     onnx.checker.check_model(graph)
     onnx.save(graph, str(out))
-    return out
