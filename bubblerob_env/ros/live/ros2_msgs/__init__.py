@@ -118,6 +118,128 @@ def _compile(
         raise RuntimeError(f"compiling {output.name} failed:\n{' '.join(command)}\n{result.stderr}")
 
 
+def _sources(gen: Path, package: str, kind: str, pattern: str) -> list[Path]:
+    """The generated files of ``kind`` that match ``pattern`` (none: the generator failed)."""
+    found = sorted((gen / kind / package).rglob(pattern))
+    if not found:
+        raise RuntimeError(f"rosidl generated no {pattern} for {kind}")
+    return found
+
+
+def _includes(prefix: Path, gen: Path) -> list[Path]:
+    """The header folders: the generated ones, the prefix's, Python's and NumPy's."""
+    includes = [gen / kind for kind in ("c", "typesupport_c", "fastrtps_c", "introspection_c")]
+    includes += [prefix / "include"]
+    includes += [p for p in sorted((prefix / "include").iterdir()) if p.is_dir()]
+    includes += [Path(sysconfig.get_paths()["include"])]
+    import numpy
+
+    includes.append(Path(numpy.get_include()))
+    return includes
+
+
+def _compile_libraries(
+    package: str, prefix: Path, gen: Path, build: Path, includes: list[Path]
+) -> None:
+    """Compile the package's C libraries into ``build``: generator, type supports, Python's."""
+    deps = PACKAGES[package]["depends"]
+    gen_c = f"{package}__rosidl_generator_c"
+    _compile(
+        _sources(gen, package, "c", "*.c"),
+        build / f"lib{gen_c}.so",
+        includes,
+        [f"{d}__rosidl_generator_c" for d in deps] + ["rosidl_runtime_c", "rcutils"],
+        prefix,
+    )
+    for ts, pattern, extra in [
+        ("rosidl_typesupport_introspection_c", "*.c", ["rosidl_typesupport_introspection_c"]),
+        (
+            "rosidl_typesupport_fastrtps_c",
+            "*.cpp",
+            ["rosidl_typesupport_fastrtps_c", "rosidl_typesupport_fastrtps_cpp", "fastcdr"],
+        ),
+    ]:
+        kind = ts.removeprefix("rosidl_typesupport_")
+        _compile(
+            _sources(gen, package, kind, pattern),
+            build / f"lib{package}__{ts}.so",
+            includes,
+            [gen_c, *(f"{d}__{ts}" for d in deps), *extra, "rosidl_runtime_c", "rcutils"],
+            prefix,
+        )
+    _compile(
+        _sources(gen, package, "typesupport_c", "*.cpp"),
+        build / f"lib{package}__rosidl_typesupport_c.so",
+        includes,
+        [gen_c, "rosidl_typesupport_c", "rosidl_runtime_c", "rcutils", "rcpputils"],
+        prefix,
+    )
+    _compile(
+        _sources(gen, package, "py", "*_s.c"),
+        build / f"lib{package}__rosidl_generator_py.so",
+        includes,
+        [gen_c, *(f"{d}__rosidl_generator_py" for d in deps), "rosidl_runtime_c"],
+        prefix,
+    )
+
+
+def _compile_extensions(
+    package: str, prefix: Path, gen: Path, build: Path, includes: list[Path]
+) -> dict[str, Path]:
+    """Compile the Python extension of each type support into ``build``: by file name."""
+    gen_c, gen_py = f"{package}__rosidl_generator_c", f"{package}__rosidl_generator_py"
+    extensions = {}
+    for ts in ("rosidl_typesupport_c", *TYPESUPPORTS):
+        name = f"{package}_s__{ts}.so"
+        _compile(
+            [gen / "py" / package / f"_{package}_s.ep.{ts}.c"],
+            build / name,
+            includes,
+            [gen_py, f"{package}__{ts}", gen_c, "rosidl_runtime_c"],
+            prefix,
+        )
+        extensions[name] = build / name
+    return extensions
+
+
+def _install(package: str, prefix: Path, work: Path, extensions: dict[str, Path]) -> Path:
+    """Install the build in ``work`` into ``prefix``, laid out as the wheels' message packages."""
+    messages = PACKAGES[package]["messages"]
+    msg_dir, idl_dir, gen, build = work / "src" / "msg", work / "idl", work / "gen", work / "lib"
+    for so in build.glob("lib*.so"):
+        shutil.copy(so, prefix / "lib" / so.name)
+    target = Path(sysconfig.get_paths(vars={"base": str(prefix)})["purelib"]) / package
+    if target.exists():
+        shutil.rmtree(target)
+    (target / "msg").mkdir(parents=True)
+    (target / "__init__.py").write_text("")
+    for py in (gen / "py" / package / "msg").glob("*.py"):
+        shutil.copy(py, target / "msg" / py.name)
+    for name, path in extensions.items():
+        shutil.copy(path, target / name)
+    headers = prefix / "include" / package / package
+    if headers.exists():
+        shutil.rmtree(headers)
+    for kind in ("c", "typesupport_c", "fastrtps_c", "introspection_c"):
+        shutil.copytree(gen / kind / package, headers, dirs_exist_ok=True)
+    share = prefix / "share" / package / "msg"
+    share.mkdir(parents=True, exist_ok=True)
+    for name in messages:
+        shutil.copy(msg_dir / f"{name}.msg", share)
+        shutil.copy(idl_dir / "msg" / f"{name}.idl", share)
+        for found in gen.rglob(f"{name}.json"):
+            shutil.copy(found, share)
+            break
+    index = prefix / "share" / "ament_index" / "resource_index"
+    for kind, text in [
+        ("packages", ""),
+        ("rosidl_interfaces", "\n".join(f"msg/{n}.{e}" for n in messages for e in ("idl", "msg"))),
+    ]:
+        (index / kind).mkdir(parents=True, exist_ok=True)
+        (index / kind / package).write_text(text)
+    return target
+
+
 def build_package(package: str = "tf2_msgs", prefix: Path | None = None) -> Path:
     """Generate, compile and install ``package`` into ``prefix`` (default: ``sys.prefix``).
 
@@ -137,124 +259,22 @@ def build_package(package: str = "tf2_msgs", prefix: Path | None = None) -> Path
             f"rosidl is not importable ({error}): pip install ros-jazzy-rclpy (it brings rosidl)"
         ) from None
     os.environ.setdefault("AMENT_PREFIX_PATH", str(prefix))
-    site = Path(sysconfig.get_paths(vars={"base": str(prefix)})["purelib"])
-    lib = prefix / "lib"
     with tempfile.TemporaryDirectory(prefix=f"{package}-build-") as tmp:
         work = Path(tmp)
-        msg_dir, idl_dir, gen = work / "src" / "msg", work / "idl", work / "gen"
+        msg_dir, idl_dir, gen, build = (
+            work / "src" / "msg",
+            work / "idl",
+            work / "gen",
+            work / "lib",
+        )
         msg_dir.mkdir(parents=True)
         (idl_dir / "msg").mkdir(parents=True)
         for name in spec["messages"]:
             shutil.copy(MSG_DIR / package / f"{name}.msg", msg_dir)
             convert_msg_to_idl(work / "src", package, Path(f"msg/{name}.msg"), idl_dir / "msg")
         _generate(prefix, package, idl_dir, gen)
-
-        deps = spec["depends"]
-        includes = [gen / kind for kind in ("c", "typesupport_c", "fastrtps_c", "introspection_c")]
-        includes += [prefix / "include"]
-        includes += [p for p in sorted((prefix / "include").iterdir()) if p.is_dir()]
-        includes += [Path(sysconfig.get_paths()["include"])]
-        import numpy
-
-        includes.append(Path(numpy.get_include()))
-        build = work / "lib"
+        includes = _includes(prefix, gen)
         build.mkdir()
-
-        def sources(kind: str, pattern: str) -> list[Path]:
-            found = sorted((gen / kind / package).rglob(pattern))
-            if not found:
-                raise RuntimeError(f"rosidl generated no {pattern} for {kind}")
-            return found
-
-        gen_c = f"{package}__rosidl_generator_c"
-        _compile(
-            sources("c", "*.c"),
-            build / f"lib{gen_c}.so",
-            includes,
-            [f"{d}__rosidl_generator_c" for d in deps] + ["rosidl_runtime_c", "rcutils"],
-            prefix,
-        )
-        for ts, pattern, extra in [
-            (
-                "rosidl_typesupport_introspection_c",
-                "*.c",
-                ["rosidl_typesupport_introspection_c"],
-            ),
-            (
-                "rosidl_typesupport_fastrtps_c",
-                "*.cpp",
-                ["rosidl_typesupport_fastrtps_c", "rosidl_typesupport_fastrtps_cpp", "fastcdr"],
-            ),
-        ]:
-            kind = ts.removeprefix("rosidl_typesupport_")
-            _compile(
-                sources(kind, pattern),
-                build / f"lib{package}__{ts}.so",
-                includes,
-                [gen_c, *(f"{d}__{ts}" for d in deps), *extra, "rosidl_runtime_c", "rcutils"],
-                prefix,
-            )
-        _compile(
-            sources("typesupport_c", "*.cpp"),
-            build / f"lib{package}__rosidl_typesupport_c.so",
-            includes,
-            [gen_c, "rosidl_typesupport_c", "rosidl_runtime_c", "rcutils", "rcpputils"],
-            prefix,
-        )
-        gen_py = f"{package}__rosidl_generator_py"
-        _compile(
-            sources("py", "*_s.c"),
-            build / f"lib{gen_py}.so",
-            includes,
-            [gen_c, *(f"{d}__rosidl_generator_py" for d in deps), "rosidl_runtime_c"],
-            prefix,
-        )
-        py_root = gen / "py" / package
-        extensions = {}
-        for ts in ("rosidl_typesupport_c", *TYPESUPPORTS):
-            name = f"{package}_s__{ts}.so"
-            _compile(
-                [py_root / f"_{package}_s.ep.{ts}.c"],
-                build / name,
-                includes,
-                [gen_py, f"{package}__{ts}", gen_c, "rosidl_runtime_c"],
-                prefix,
-            )
-            extensions[name] = build / name
-
-        # install, laid out as the wheels lay out their message packages
-        for so in build.glob("lib*.so"):
-            shutil.copy(so, lib / so.name)
-        target = site / package
-        if target.exists():
-            shutil.rmtree(target)
-        (target / "msg").mkdir(parents=True)
-        (target / "__init__.py").write_text("")
-        for py in (py_root / "msg").glob("*.py"):
-            shutil.copy(py, target / "msg" / py.name)
-        for name, path in extensions.items():
-            shutil.copy(path, target / name)
-        headers = prefix / "include" / package / package
-        if headers.exists():
-            shutil.rmtree(headers)
-        for kind in ("c", "typesupport_c", "fastrtps_c", "introspection_c"):
-            shutil.copytree(gen / kind / package, headers, dirs_exist_ok=True)
-        share = prefix / "share" / package / "msg"
-        share.mkdir(parents=True, exist_ok=True)
-        for name in spec["messages"]:
-            shutil.copy(msg_dir / f"{name}.msg", share)
-            shutil.copy(idl_dir / "msg" / f"{name}.idl", share)
-            for found in gen.rglob(f"{name}.json"):
-                shutil.copy(found, share)
-                break
-        index = prefix / "share" / "ament_index" / "resource_index"
-        for kind, text in [
-            ("packages", ""),
-            (
-                "rosidl_interfaces",
-                "\n".join(f"msg/{n}.{ext}" for n in spec["messages"] for ext in ("idl", "msg")),
-            ),
-        ]:
-            (index / kind).mkdir(parents=True, exist_ok=True)
-            (index / kind / package).write_text(text)
-    return target
+        _compile_libraries(package, prefix, gen, build, includes)
+        extensions = _compile_extensions(package, prefix, gen, build, includes)
+        return _install(package, prefix, work, extensions)
