@@ -33,7 +33,7 @@ DEMO_DEBS := libegl1 libegl-mesa0 libgl1-mesa-dri ffmpeg
 TEST_DEBS := xvfb xauth tmux python3-rosbag python3-rospy python3-rosmaster python3-rostopic python3-roslaunch python3-std-msgs python3-rosgraph-msgs python3-geometry-msgs python3-sensor-msgs python3-nav-msgs python3-tf2-msgs
 # What each step's stamp is the sha256 of: when one changes, the step runs again.
 PIP_INPUTS := pyproject.toml
-TF2_INPUTS := pyproject.toml bubblerob_env/ros/live/ros2_msgs.py bubblerob_env/ros/messages/msg/tf2_msgs/TFMessage.msg $(wildcard bubblerob_env/ros/messages/msg/vision_msgs/*.msg)
+TF2_INPUTS := pyproject.toml bubblerob_env/ros/live/ros2_msgs/__init__.py bubblerob_env/ros/live/ros2_msgs/__main__.py bubblerob_cli/ros2_msgs.py bubblerob_env/ros/messages/msg/tf2_msgs/TFMessage.msg $(wildcard bubblerob_env/ros/messages/msg/vision_msgs/*.msg)
 TORCH_REPORT := $(VENV)/.torch-install-report.json
 
 .PHONY: help demo test demo-setup test-setup debs-demo debs-test venv venv-demo kernel venv-all torch \
