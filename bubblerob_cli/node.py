@@ -83,6 +83,14 @@ def add_subcommands(subparsers: Any) -> None:
         metavar="WxH",
         help="camera size, e.g. 128x96 (turns the camera on)",
     )
+    _add_simulation_arguments(node)
+    add_env_arguments(node)
+    _add_later_arguments(node)
+    node.set_defaults(handler=_node)
+
+
+def _add_simulation_arguments(node: argparse.ArgumentParser) -> None:
+    """``--seed`` to ``--start-time``, in ``--help``'s order."""
     node.add_argument("--seed", type=int, default=0, help="seed of the first episode (k: seed+k)")
     node.add_argument(
         "--watchdog",
@@ -107,9 +115,6 @@ def add_subcommands(subparsers: Any) -> None:
         default=None,
         help="stamp of the first frame: Unix seconds or an ISO 8601 date (default: now)",
     )
-    add_env_arguments(node)
-    _add_later_arguments(node)
-    node.set_defaults(handler=_node)
 
 
 def _add_later_arguments(node: argparse.ArgumentParser) -> None:

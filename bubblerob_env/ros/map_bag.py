@@ -96,30 +96,7 @@ def map_bag(
         meta = episodes[episode]
         start = int(meta["start_time_ns"])
         end = int(episodes[episode + 1]["start_time_ns"]) if episode + 1 < len(episodes) else None
-        laser_offset = (0.0, 0.0, 0.0)
-        poses: dict[int, tuple[float, float, float]] = {}
-        scans: list[tuple[int, Any]] = []
-        recorded: Grid | None = None
-        topics = ("/tf", "/tf_static", "/scan", "/map")
-        wanted = [c for c in reader.connections if c.topic in topics]
-        for connection, _, raw in reader.messages(connections=wanted):
-            message = reader.deserialize(raw, connection.msgtype)
-            if connection.topic == "/map":
-                if _stamp(message.header) == start:
-                    recorded = _grid(message, resolution)
-                continue
-            if connection.topic == "/scan":
-                stamp = _stamp(message.header)
-                if stamp >= start and (end is None or stamp < end):
-                    scans.append((stamp, message))
-                continue
-            for transform in message.transforms:
-                t, q = transform.transform.translation, transform.transform.rotation
-                pose = (float(t.x), float(t.y), _yaw(q))
-                if transform.child_frame_id.endswith("laser_link"):
-                    laser_offset = pose
-                elif transform.child_frame_id.endswith("base_link"):
-                    poses[_stamp(transform.header)] = pose
+        recorded, scans, poses, laser_offset = _read_episode(reader, start, end, resolution)
     if recorded is None:
         truth, source = _simulated(meta, resolution, env_id, env_kwargs), ""
     else:
@@ -142,6 +119,45 @@ def map_bag(
         mapper.add_scan(laser, angles, ranges, float(scan.range_max))
         used += 1
     return MapResult(mapper.grid(), truth, used, source or "the re-simulated episode")
+
+
+Pose = tuple[float, float, float]
+"""``(x, y, yaw)``."""
+
+
+def _read_episode(
+    reader: Any, start: int, end: int | None, resolution: float
+) -> tuple[Grid | None, list[tuple[int, Any]], dict[int, Pose], Pose]:
+    """What :func:`map_bag` reads of one episode, from ``start`` to before ``end`` (ns).
+
+    Its ``/map`` at ``resolution`` (or None), its scans, ``odom -> base_link`` poses by stamp and
+    ``base_link -> laser_link``.
+    """
+    laser_offset = (0.0, 0.0, 0.0)
+    poses: dict[int, Pose] = {}
+    scans: list[tuple[int, Any]] = []
+    recorded: Grid | None = None
+    topics = ("/tf", "/tf_static", "/scan", "/map")
+    wanted = [c for c in reader.connections if c.topic in topics]
+    for connection, _, raw in reader.messages(connections=wanted):
+        message = reader.deserialize(raw, connection.msgtype)
+        if connection.topic == "/map":
+            if _stamp(message.header) == start:
+                recorded = _grid(message, resolution)
+            continue
+        if connection.topic == "/scan":
+            stamp = _stamp(message.header)
+            if stamp >= start and (end is None or stamp < end):
+                scans.append((stamp, message))
+            continue
+        for transform in message.transforms:
+            t, q = transform.transform.translation, transform.transform.rotation
+            pose = (float(t.x), float(t.y), _yaw(q))
+            if transform.child_frame_id.endswith("laser_link"):
+                laser_offset = pose
+            elif transform.child_frame_id.endswith("base_link"):
+                poses[_stamp(transform.header)] = pose
+    return recorded, scans, poses, laser_offset
 
 
 def _grid(message: Any, resolution: float) -> Grid | None:

@@ -16,6 +16,7 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from numpy.typing import NDArray
 
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
 from bubblerob_env.ros.fastpath.framing import Record
@@ -229,17 +230,7 @@ def _replay_episode(
     env: gym.Env[Any, Any], serializer: FrameSerializer, meta: dict[str, Any], recorded: _Episode
 ) -> tuple[int, int, Divergence | None]:
     """``(steps, messages compared, first divergence)`` of one episode."""
-    decode = _decoder(serializer)
-    actions = []
-    for stamp, raw in recorded.messages[serializer.names["action"]]:
-        try:
-            action = np.asarray(decode(raw, MSGTYPES["action"]).data, dtype=np.float64)
-        except Exception as error:  # noqa: BLE001 - damaged bytes fail in many ways
-            raise CorruptBagError(
-                f"{recorded.path}: episode {meta['episode']}'s action at {stamp} ns does not "
-                f"deserialize ({error})"
-            ) from None
-        actions.append(action)
+    actions = _recorded_actions(serializer, meta, recorded)
     cursor = {topic: 0 for topic in recorded.messages}
     compared = 0
 
@@ -295,6 +286,24 @@ def _replay_episode(
                 Divergence(meta["episode"], len(actions), topic, "message", extra, "none"),
             )
     return len(actions), compared, None
+
+
+def _recorded_actions(
+    serializer: FrameSerializer, meta: dict[str, Any], recorded: _Episode
+) -> list[NDArray[np.float64]]:
+    """The episode's actions, decoded; a message that does not decode is a damaged bag."""
+    decode = _decoder(serializer)
+    actions = []
+    for stamp, raw in recorded.messages[serializer.names["action"]]:
+        try:
+            action = np.asarray(decode(raw, MSGTYPES["action"]).data, dtype=np.float64)
+        except Exception as error:  # noqa: BLE001 - damaged bytes fail in many ways
+            raise CorruptBagError(
+                f"{recorded.path}: episode {meta['episode']}'s action at {stamp} ns does not "
+                f"deserialize ({error})"
+            ) from None
+        actions.append(action)
+    return actions
 
 
 def _detector(env: gym.Env[Any, Any], serializer: FrameSerializer) -> Any:
