@@ -9,6 +9,7 @@ its own), and :class:`~bubblerob_env.batch.common.ObservationFormat` builds the 
 
 from __future__ import annotations
 
+import copy
 from pathlib import Path
 from typing import Any
 
@@ -33,7 +34,7 @@ from bubblerob_env.core.kernel import OUT
 from bubblerob_env.infos import robot_info
 from bubblerob_env.kinematics import DiffDrive
 from bubblerob_env.odometry import Odometry, draw_slip
-from bubblerob_env.rendering import HumanViewer, OverheadRenderer, render_modes_here
+from bubblerob_env.rendering import EnvViews, render_modes_here
 from bubblerob_env.robots import RobotDescription
 from bubblerob_env.scene import Scene, SceneField
 from bubblerob_env.sensors import CameraSpec, LaserSpec, ProximitySpec, StaticTransform
@@ -279,11 +280,8 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
         self.observation_layout = self.observation_format.layout
         """``obs_mode="flat"``: each reading's slice of the flat observation."""
         self.observation_space = self.observation_format.space
-        self._overhead: OverheadRenderer | None = None
-        # The window opens on the first render, but a missing display is reported now.
-        self._viewer: HumanViewer | None = None
-        if config.render_mode == "human":
-            HumanViewer.require_display()
+        size = (config.render_width, config.render_height)
+        self._views = EnvViews(config.render_mode, size, config.arena_size + 0.3)
         self.last_laser: NDArray[np.float32] | None = None
         """The last scan, which ``render`` draws (a batch sets it before rendering)."""
         self._clipped_actions = 0
@@ -322,15 +320,9 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
         self.scene.forward()
         self._clipped_actions = 0
         self._collided = False
-        core = self._core
-        core.refresh_geoms(self._row, self.scene.model)
         self._draw_noise()
-        core.observe(self._one_robot)
-        row = core.out[self._row]
-        self._odometry.reset(self._row, row)
-        row[OUT.COLLISION] = row[OUT.CLIPPED] = 0.0
-        row[OUT.WHEEL_COMMAND : OUT.WHEEL_COMMAND + 2] = 0.0
-        row[OUT.REWARD : OUT.COLLISION_COST + 1] = 0.0
+        self._core.start(self._row, self.scene.model)
+        self._odometry.reset(self._row, self._core.out[self._row])
         obs = self._observation()
         info = self._info()
         if self.render_mode == "human":
@@ -379,12 +371,9 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
             self._core.noise[self._row] = noise
 
     def __getstate__(self) -> dict[str, Any]:
-        # Windows and OpenGL contexts cannot be pickled or deep-copied; a copy (SB3, RLlib and
-        # vector envs pickle envs) re-creates them on first use, as the original did.
-        state = {**self.__dict__, "_overhead": None, "_viewer": None}
-        for view in _VIEWS:
-            state.pop(view, None)
-        return state
+        # A copy (SB3, RLlib and vector envs pickle envs) makes its own windows and OpenGL
+        # contexts (EnvViews, CameraSensor) on first use, and binds to a kernel batch of its own.
+        return {key: value for key, value in self.__dict__.items() if key not in _VIEWS}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
@@ -405,7 +394,7 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
         clone.scene = self.scene.spawn()
         clone._np_random = clone._np_random_seed = None
         clone.layout = clone.last_laser = None
-        clone._overhead = clone._viewer = None
+        clone._views = copy.copy(self._views)  # its own renderer, made on first use
         return clone
 
     def _check_open(self, method: str) -> None:
@@ -436,29 +425,12 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
     def render(self) -> NDArray[np.uint8] | None:
         """``rgb_array``: overhead frame with the laser drawn; ``human``: update the window."""
         self._check_open("render")
-        scene = self.scene
-        if self.render_mode == "human":
-            if self._viewer is None:
-                self._viewer = HumanViewer(scene.model, scene.data)
-            self._viewer.render()
-            return None
-        if self.render_mode != "rgb_array":
-            return None
-        if self._overhead is None:
-            config = scene.config
-            size = (config.render_width, config.render_height)
-            self._overhead = OverheadRenderer(scene.model, *size, self.arena_size + 0.3)
-        if scene.laser is None or self.last_laser is None or scene.laser_spec is None:
-            return self._overhead.render(scene.data)
-        origin, points = scene.laser.endpoints(scene.data, self.last_laser)
-        hit = self.last_laser < scene.laser_spec.range_max
-        return self._overhead.render(scene.data, origin, points, hit)
+        scene, spec = self.scene, self.scene.laser_spec
+        range_max = spec.range_max if spec is not None else 0.0
+        return self._views.render(scene.model, scene.data, scene.laser, self.last_laser, range_max)
 
     def close(self) -> None:
         """Free renderers and windows; the env cannot step again afterwards."""
         self._closed = True
         self.scene.close()
-        for closable in (self._overhead, self._viewer):
-            if closable is not None:
-                closable.close()
-        self._overhead = self._viewer = None
+        self._views.close()

@@ -1,7 +1,7 @@
 """``info`` from the kernel's numbers: one robot's dict, or a whole batch's dict of arrays.
 
 The single env and the batch build ``info`` here, from the same columns of
-:class:`~bubblerob_env.core.robots.RobotBatch`'s results, so a batch row equals the single env's
+:class:`~bubblerob_env.core.batch.RobotBatch`'s results, so a batch row equals the single env's
 ``info`` key for key and type for type (``tests/test_vector_env.py`` compares them).
 """
 
@@ -20,7 +20,7 @@ __all__ = ["Results", "batched_step_info", "robot_info", "robot_step_info"]
 class Results(Protocol):
     """Where the numbers come from.
 
-    The kernel's :class:`~bubblerob_env.core.robots.RobotBatch`, or the MuJoCo Warp backend's
+    The kernel's :class:`~bubblerob_env.core.batch.RobotBatch`, or the MuJoCo Warp backend's
     host copy of its device arrays (:class:`~bubblerob_env.mjwarp.device.HostCopy`).
     """
 

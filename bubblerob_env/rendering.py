@@ -4,15 +4,18 @@ from __future__ import annotations
 
 import os
 import sys
+from typing import Any, Protocol
 
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
 __all__ = [
+    "EnvViews",
     "ForkedAfterRenderingError",
     "HumanViewer",
     "OverheadRenderer",
+    "Rays",
     "check_fork_safe",
     "display_available",
     "render_modes_here",
@@ -186,3 +189,60 @@ class HumanViewer:
     def close(self) -> None:
         """Close the window."""
         self._viewer.close()
+
+
+class Rays(Protocol):
+    """A laser that can tell where its rays end (:class:`~bubblerob_env.sensors.Laser`)."""
+
+    def endpoints(
+        self, data: mujoco.MjData, readings: NDArray[np.float32]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The laser's origin and each ray's end at ``readings`` metres."""
+
+
+class EnvViews:
+    """What an env's ``render()`` shows: overhead frames (``rgb_array``) or a window (``human``).
+
+    The renderer or window is made on first use; a copy (pickled, deep-copied) makes its own,
+    as OpenGL contexts and windows cannot be copied. A missing display is reported at once.
+    """
+
+    def __init__(self, mode: str | None, size: tuple[int, int], view_size: float) -> None:
+        self.mode, self.size, self.view_size = mode, size, view_size
+        self._overhead: OverheadRenderer | None = None
+        self._viewer: HumanViewer | None = None
+        if mode == "human":
+            HumanViewer.require_display()
+
+    def render(
+        self,
+        model: mujoco.MjModel,
+        data: mujoco.MjData,
+        laser: Rays | None = None,
+        readings: NDArray[np.float32] | None = None,
+        range_max: float = 0.0,
+    ) -> NDArray[np.uint8] | None:
+        """``rgb_array``: a frame, with ``laser``'s rays at ``readings``; ``human``: the window."""
+        if self.mode == "human":
+            if self._viewer is None:
+                self._viewer = HumanViewer(model, data)
+            self._viewer.render()
+            return None
+        if self.mode != "rgb_array":
+            return None
+        if self._overhead is None:
+            self._overhead = OverheadRenderer(model, *self.size, self.view_size)
+        if laser is None or readings is None:
+            return self._overhead.render(data)
+        origin, points = laser.endpoints(data, readings)
+        return self._overhead.render(data, origin, points, readings < range_max)
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {**self.__dict__, "_overhead": None, "_viewer": None}
+
+    def close(self) -> None:
+        """Free the renderer and the window."""
+        for closable in (self._overhead, self._viewer):
+            if closable is not None:
+                closable.close()
+        self._overhead = self._viewer = None

@@ -24,6 +24,5 @@ __all__ = [
     "checked_autoreset_mode",
     "collate_infos",
     "reset_mask",
+    "world_seeds",
 ]
-
-_seeds = world_seeds  # the old private name, until every caller says world_seeds

@@ -17,7 +17,7 @@ import pytest
 import bubblerob_env  # noqa: F401
 from bubblerob_env.arena import ASSETS_DIR
 from bubblerob_env.core.raycast import cast_prisms, world_rays
-from bubblerob_env.core.robots import laser_geoms
+from bubblerob_env.core.batch import laser_geoms
 
 SEEDS = range(5000, 5020)
 
@@ -29,8 +29,8 @@ def _place(env, x: float, y: float, yaw: float, tilt: np.ndarray | None, z: floa
         tilted = np.empty(4)
         mujoco.mju_mulQuat(tilted, quat, tilt)
         quat = tilted
-    adr = raw._root_qpos
-    raw.data.qpos[adr : adr + 3] = (x, y, raw.model.body_pos[raw._base][2] if z is None else z)
+    adr = raw.scene.root_qpos
+    raw.data.qpos[adr : adr + 3] = (x, y, raw.model.body_pos[raw.scene.base_body][2] if z is None else z)
     raw.data.qpos[adr + 3 : adr + 7] = quat
     mujoco.mj_forward(raw.model, raw.data)
 
@@ -83,7 +83,7 @@ def _both(env) -> tuple[np.ndarray, np.ndarray]:
         spec.num_rays,
         spec.range_max,
     )
-    return raw._laser.finish(analytic), raw._laser.finish(reference)
+    return raw.scene.laser.finish(analytic), raw.scene.laser.finish(reference)
 
 
 def _random_tilt(rng: np.random.Generator) -> np.ndarray:

@@ -10,7 +10,7 @@ from gymnasium.wrappers import NormalizeObservation
 from gymnasium.wrappers.vector import NormalizeObservation as VectorNormalizeObservation
 
 import bubblerob_env  # noqa: F401
-from bubblerob_env.vector import BubbleRobVectorEnv
+from bubblerob_env.batch.cpu import BubbleRobVectorEnv
 
 
 def test_flat_observation_is_the_dict_readings_in_layout_order():

@@ -27,7 +27,7 @@ def _raycast_grid(env: gym.Env, grid: Grid) -> np.ndarray:
     floor = model.geom("floor").id
     # Only the groups of the floor, the walls and the obstacles: the robot is not the map.
     groups = {int(model.geom_group[model.geom(n).id]) for n in ("floor", "wall_north")}
-    groups |= {int(model.geom_group[g]) for g in base._slots.geom_ids}
+    groups |= {int(model.geom_group[g]) for g in base.scene.slots.geom_ids}
     robot_groups = {int(model.geom_group[model.geom("right_wheel").id])}
     assert not groups & robot_groups
     geomgroup = np.array([int(g in groups) for g in range(6)], dtype=np.uint8)

@@ -17,7 +17,7 @@ from test_vector_env import _actions, _check
 
 import bubblerob_env  # noqa: F401  (registers PioneerP3DX-v0)
 from bubblerob_env.robots import PIONEER_P3DX, ROBOTS
-from bubblerob_env.vector import BubbleRobVectorEnv
+from bubblerob_env.batch.cpu import BubbleRobVectorEnv
 
 ENV_ID = "PioneerP3DX-v0"
 # Datasheet: 455 x 381 x 237 mm, 9 kg, 195 mm wheels, 1.2 m/s, 300 deg/s. Tutorial: 180 degrees

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode, VectorEnv
 
-from bubblerob_env.vector import ARENA_MEMORY, BubbleRobVectorEnv, collate_infos
+from bubblerob_env.batch.common import collate_infos
+from bubblerob_env.batch.cpu import ARENA_MEMORY, BubbleRobVectorEnv
 
 SEED = 40
 
@@ -257,3 +258,10 @@ def test_render_gives_each_robots_frame():
     plain.step(np.zeros(2, np.float32))
     np.testing.assert_array_equal(frames[1], plain.render())
     envs.close()
+
+
+def test_the_old_module_path_still_names_the_cpu_batch():
+    from bubblerob_env import vector
+
+    assert vector.BubbleRobVectorEnv is BubbleRobVectorEnv
+    assert vector.ARENA_MEMORY == ARENA_MEMORY

@@ -24,6 +24,7 @@ from bubblerob_env.core.kernel import (
     CFG_SIZE,
     ICFG,
     ICFG_SIZE,
+    OUT,
     OUT_SIZE,
     PTR,
     PTR_SIZE,
@@ -179,6 +180,19 @@ class RobotBatch:
         visible = geoms[alpha != 0]
         self.cast_geoms[i, :] = -1
         self.cast_geoms[i, : visible.size] = visible
+
+    def start(self, i: int, model: mujoco.MjModel) -> None:
+        """Robot ``i`` just reset (``model``: its model): its readings, no step's numbers.
+
+        Its laser-visible geoms, then its sensors and ``info`` numbers as they are, with the
+        columns only a step sets (collision, clipping, wheel command, reward parts) zeroed.
+        """
+        self.refresh_geoms(i, model)
+        self.observe(np.array([i], dtype=np.int64))
+        row = self.out[i]
+        row[OUT.COLLISION] = row[OUT.CLIPPED] = 0.0
+        row[OUT.WHEEL_COMMAND : OUT.WHEEL_COMMAND + 2] = 0.0
+        row[OUT.REWARD : OUT.COLLISION_COST + 1] = 0.0
 
     def step(self, robots: NDArray[np.int64]) -> None:
         """One control step of ``robots`` with the actions in ``self.actions`` (GIL released)."""
