@@ -28,6 +28,7 @@ PACKAGES = ("bubblerob_cli", "train", "policies", "bubblerob_env")
 # Inside bubblerob_env: a layer may not import these (its higher neighbours).
 INNER_FORBIDDEN = {
     "bubblerob_env": ("bubblerob_env.ros",),
+    "bubblerob_env.ros": (),  # the top of bubblerob_env
     "bubblerob_env.core": ("bubblerob_env.ros",),
     "bubblerob_env.ros.messages": (
         "bubblerob_env.ros.fastpath", "bubblerob_env.ros.bags", "bubblerob_env.ros.readback",
@@ -37,6 +38,9 @@ INNER_FORBIDDEN = {
         "bubblerob_env.ros.bags", "bubblerob_env.ros.live", "bubblerob_env.ros.readback",
     ),
     "bubblerob_env.ros.bags": ("bubblerob_env.ros.live", "bubblerob_env.ros.readback"),
+    # The Sink protocol and the fan-out sit below every sink: bags and live backends.
+    "bubblerob_env.ros.sink": ("bubblerob_env.ros.bags", "bubblerob_env.ros.live"),
+    "bubblerob_env.ros.fanout": ("bubblerob_env.ros.bags", "bubblerob_env.ros.live"),
 }  # fmt: skip
 # Modules that know no Gym class.
 NO_GYM = ("bubblerob_env.core", "bubblerob_env.config")
@@ -75,7 +79,7 @@ def parse(name: str, path: Path, source: str) -> Module:
         elif isinstance(node, ast.ImportFrom):
             assert node.level == 0, f"{path}: relative import (the walk reads absolute ones)"
             assert node.module is not None
-            module.imports.setdefault(node.module, node.lineno)
+            # `from pkg import sub` uses pkg.sub (resolved to pkg itself where sub is a name).
             for alias in node.names:
                 module.imports.setdefault(f"{node.module}.{alias.name}", node.lineno)
         elif (
@@ -236,8 +240,9 @@ def command_work_below(modules: dict[str, Module]) -> Iterator[str]:
     for module in modules.values():
         if rank(module.name) == 0 or module.is_main:
             continue
-        if "argparse" in module.imports:
-            yield f"{module.name}:{module.imports['argparse']} imports argparse"
+        for name, line in module.imports.items():
+            if in_layer(name, "argparse"):
+                yield f"{module.name}:{line} imports argparse"
         for node in ast.walk(module.tree):
             if not isinstance(node, ast.Call):
                 continue
