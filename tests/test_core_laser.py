@@ -16,8 +16,8 @@ import pytest
 
 import bubblerob_env  # noqa: F401
 from bubblerob_env.arena import ASSETS_DIR
-from bubblerob_env.core.raycast import cast_prisms, world_rays
 from bubblerob_env.core.batch import laser_geoms
+from bubblerob_env.core.raycast import cast_prisms, world_rays
 
 SEEDS = range(5000, 5020)
 
@@ -30,7 +30,8 @@ def _place(env, x: float, y: float, yaw: float, tilt: np.ndarray | None, z: floa
         mujoco.mju_mulQuat(tilted, quat, tilt)
         quat = tilted
     adr = raw.scene.root_qpos
-    raw.data.qpos[adr : adr + 3] = (x, y, raw.model.body_pos[raw.scene.base_body][2] if z is None else z)
+    floor_z = raw.model.body_pos[raw.scene.base_body][2]
+    raw.data.qpos[adr : adr + 3] = (x, y, floor_z if z is None else z)
     raw.data.qpos[adr + 3 : adr + 7] = quat
     mujoco.mj_forward(raw.model, raw.data)
 

@@ -93,3 +93,29 @@ def test_none_still_means_the_wheels_limit():
     assert base.max_angular_speed == base.drive.max_angular_speed > 0
     env.close()
     assert gym.make("BubbleRob-v0", xml_file=str(ASSETS_DIR / "scenes" / "wall_test.xml"))
+
+
+def test_the_config_checks_exactly_the_envs_keyword_arguments():
+    # EnvConfig.from_kwargs knows the names and defaults (batches check kwargs without an env):
+    # they must be the signature's, in its order (the TypeError lists them in that order).
+    import inspect
+
+    from bubblerob_env.config import ARGUMENTS
+    from bubblerob_env.env import BubbleRobEnv
+
+    parameters = inspect.signature(BubbleRobEnv.__init__).parameters
+    signature = {
+        name: p.default for name, p in parameters.items() if name not in ("self", "unknown_kwargs")
+    }
+    assert signature == ARGUMENTS
+    assert list(signature) == list(ARGUMENTS)
+
+
+def test_the_env_reads_its_arguments_from_its_frozen_config():
+    env = gym.make("BubbleRob-v0", arena_size=3.0, num_obstacles=(2, 3)).unwrapped
+    config = env.config
+    assert (env.arena_size, env.num_obstacles) == (config.arena_size, config.num_obstacles)
+    with pytest.raises(AttributeError):
+        config.arena_size = 5.0  # type: ignore[misc]
+    env.collision_penalty = 7.0  # as VectorEnv.set_attr does: a new config with the value
+    assert env.config.collision_penalty == 7.0 and config.collision_penalty == 100.0

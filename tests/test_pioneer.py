@@ -16,8 +16,8 @@ from test_core_laser import _both, _place, _random_tilt
 from test_vector_env import _actions, _check
 
 import bubblerob_env  # noqa: F401  (registers PioneerP3DX-v0)
-from bubblerob_env.robots import PIONEER_P3DX, ROBOTS
 from bubblerob_env.batch.cpu import BubbleRobVectorEnv
+from bubblerob_env.robots import PIONEER_P3DX, ROBOTS
 
 ENV_ID = "PioneerP3DX-v0"
 # Datasheet: 455 x 381 x 237 mm, 9 kg, 195 mm wheels, 1.2 m/s, 300 deg/s. Tutorial: 180 degrees

@@ -16,8 +16,8 @@ pytest.importorskip("mujoco_warp")
 import warp as wp  # noqa: E402
 
 from bubblerob_env.backends import make_vector_env  # noqa: E402
-from bubblerob_env.mjwarp import WarpVectorEnv  # noqa: E402
 from bubblerob_env.batch.cpu import BubbleRobVectorEnv  # noqa: E402
+from bubblerob_env.mjwarp import WarpVectorEnv  # noqa: E402
 
 N = 4
 ROOT = Path(__file__).resolve().parents[2]
