@@ -33,7 +33,7 @@ def build_wheel(out: Path) -> Path:
     source.mkdir()
     for name in ("pyproject.toml", "README.md"):
         shutil.copy2(ROOT / name, source / name)
-    for package in ("bubblerob_env", "policies", "train"):
+    for package in ("bubblerob_cli", "bubblerob_env", "policies", "train"):
         shutil.copytree(
             ROOT / package, source / package, ignore=shutil.ignore_patterns("__pycache__")
         )

@@ -21,7 +21,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("bubblerob_env", "policies", "train")
+PACKAGES = ("bubblerob_cli", "bubblerob_env", "policies", "train")
 _BLOCK_TORCH = (
     "import os, sys; os.environ.get('BUBBLEROB_TEST_NO_TORCH') and "
     "sys.modules.update(torch=None, stable_baselines3=None)\n"
