@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import signal
 from pathlib import Path
 
 import gymnasium as gym
@@ -11,6 +12,19 @@ import bubblerob_env  # noqa: F401  (registers BubbleRob-v0, picks MUJOCO_GL bef
 from bubblerob_env.arena import ASSETS_DIR
 
 WALL_TEST_SCENE = ASSETS_DIR / "scenes" / "wall_test.xml"
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """Run as from a terminal however the suite was started.
+
+    A background job of a non-interactive shell (``make test &``, ``nohup``, many CI runners)
+    starts with SIGINT ignored, and an ignored signal stays ignored across ``exec``: every command
+    a test starts would then ignore the Ctrl-C the test sends it. The commands themselves keep that
+    convention (a background job is not for the terminal's Ctrl-C); the suite restores Python's
+    default here, so that a caught signal is reset to the default action in each child it starts.
+    """
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @pytest.fixture
