@@ -1,7 +1,8 @@
 """BubbleRob in MuJoCo as a Gymnasium environment: ``gym.make("BubbleRob-v0")``.
 
 Importing this package registers one env id per robot (:data:`bubblerob_env.robots.ROBOTS`):
-``BubbleRob-v0`` and ``PioneerP3DX-v0``. Without a display, and unless ``MUJOCO_GL`` is
+``BubbleRob-v0`` and ``PioneerP3DX-v0``, and its goal-reaching task (:mod:`bubblerob_env.tasks`):
+``BubbleRobNav-v0`` and ``PioneerP3DXNav-v0``. Without a display, and unless ``MUJOCO_GL`` is
 already set, it selects MuJoCo's headless EGL backend, so that the camera and
 ``render_mode="rgb_array"`` work on servers.
 """
@@ -60,5 +61,13 @@ for _robot in ROBOTS.values():
         max_episode_steps=1000,
         # The env's default robot takes no kwarg: BubbleRob-v0's spec (and the env_kwargs its
         # bags record) stay {}.
+        kwargs={} if _robot.name == "bubblerob" else {"robot": _robot.name},
+    )
+    # The goal-reaching task on the same robot (issue #37): BubbleRobNav-v0, PioneerP3DXNav-v0.
+    _name, _version = _robot.env_id.rsplit("-", 1)
+    register(
+        id=f"{_name}Nav-{_version}",
+        entry_point="bubblerob_env.tasks.nav:BubbleRobNavEnv",
+        max_episode_steps=1000,
         kwargs={} if _robot.name == "bubblerob" else {"robot": _robot.name},
     )

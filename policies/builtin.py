@@ -1,4 +1,7 @@
-"""The built-in controllers by name: ``reactive``, ``laser`` (the gap follower) and ``random``."""
+"""The built-in controllers by name: ``reactive``, ``laser`` (the gap follower) and ``random``.
+
+The Nav task's (``BubbleRobNav-v0``) are ``navigator`` and ``pursuit`` (:mod:`policies.navigator`).
+"""
 
 from __future__ import annotations
 
@@ -9,6 +12,7 @@ import gymnasium as gym
 from bubblerob_env import BubbleRobEnv
 from policies.base import ActionMapper, Policy
 from policies.handwritten import LaserPolicy, RandomPolicy, ReactivePolicy
+from policies.navigator import NAVIGATION_POLICIES, navigation_policy
 from policies.observations import (
     FlatObservationPolicy,
     bubblerob_base,
@@ -16,9 +20,10 @@ from policies.observations import (
     dict_view,
 )
 
-__all__ = ["BUILTIN_POLICIES", "builtin_policy", "controller"]
+__all__ = ["BUILTIN_POLICIES", "NAVIGATION_POLICIES", "builtin_policy", "controller"]
 
 BUILTIN_POLICIES = ("reactive", "laser", "random")
+"""The controllers of every env; the Nav task's are :data:`NAVIGATION_POLICIES`."""
 
 
 def builtin_policy(name: str, env: gym.Env[Any, Any] | None = None, seed: int = 0) -> Policy:
@@ -33,6 +38,11 @@ def controller(name: str, base: BubbleRobEnv, space: gym.spaces.Dict | None, see
 
     Takes ``Dict`` observations, as ``space`` gives them.
     """
+    mapper = ActionMapper(
+        base.drive, base.action_type, base.max_linear_speed, base.max_angular_speed
+    )
+    if name in NAVIGATION_POLICIES:
+        return navigation_policy(name, base, space, mapper)
     # Every built-in reads proximity (a batch's size too); the laser policy, the whole scan.
     needed: dict[str, tuple[int, ...] | None] = {"proximity": (1,)}
     if name == "laser":
@@ -41,9 +51,6 @@ def controller(name: str, base: BubbleRobEnv, space: gym.spaces.Dict | None, see
         needed["laser"] = (base.laser_spec.num_rays,)
     if space is not None:
         check_observations(name, needed, space)
-    mapper = ActionMapper(
-        base.drive, base.action_type, base.max_linear_speed, base.max_angular_speed
-    )
     if name == "reactive":
         return ReactivePolicy(mapper, base.proximity_spec.trigger_distance, dt=base.dt)
     if name == "laser" and base.laser_spec is not None:

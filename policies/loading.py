@@ -13,7 +13,7 @@ from typing import Any
 import gymnasium as gym
 
 from policies.base import Policy
-from policies.builtin import BUILTIN_POLICIES, builtin_policy
+from policies.builtin import BUILTIN_POLICIES, NAVIGATION_POLICIES, builtin_policy
 from policies.observations import FlatObservationPolicy, PolicyEnvMismatchError, dict_view
 from policies.onnx_policy import load_onnx
 from policies.runs import TRAINED_DIR
@@ -38,7 +38,8 @@ def load_policy(
     """A policy for ``env`` (default: ``BubbleRob-v0`` with default kwargs).
 
     Args:
-        name_or_path: ``"reactive"``, ``"laser"``, ``"random"``, ``"ppo"`` (the shipped trained
+        name_or_path: ``"reactive"``, ``"laser"``, ``"random"``, ``"navigator"`` and
+            ``"pursuit"`` (Nav envs only), ``"ppo"`` (the shipped trained
             policy, run with onnxruntime), the path of an ONNX file written by
             ``python -m policies.export_onnx``, or the path of an SB3 ``.zip`` (PPO or SAC; needs
             the [train] extra). A model whose run's ``config.yml`` has an ``env_wrapper`` of
@@ -56,7 +57,7 @@ def load_policy(
             laser rays, camera) differs from ``env``.
     """
     name = str(name_or_path)
-    if name in BUILTIN_POLICIES and name not in SHIPPED_POLICIES:
+    if name in (*BUILTIN_POLICIES, *NAVIGATION_POLICIES) and name not in SHIPPED_POLICIES:
         return builtin_policy(name, env, seed)
     space, layout = (None, None) if env is None else dict_view(env, name)
     policy = _load_trained(name, env, space)
@@ -85,6 +86,7 @@ def _load_trained(
             return load_onnx(path, env, name, space)
         return load_sb3(path, env, name, space)
     raise ValueError(
-        f"unknown policy {name!r}: use one of {[*BUILTIN_POLICIES, *SHIPPED_POLICIES]} "
+        f"unknown policy {name!r}: use one of "
+        f"{[*BUILTIN_POLICIES, *NAVIGATION_POLICIES, *SHIPPED_POLICIES]} "
         "or a path to an exported .onnx or an SB3 .zip"
     )

@@ -1,0 +1,208 @@
+"""Goal-reaching controllers for the Nav task: ``navigator`` (the baseline) and ``pursuit``.
+
+- :class:`NavigatorPolicy` reads only its observation: the goal's distance and bearing, and the
+  laser. It steers along the free heading that best trades the gap follower's free corridor
+  (:class:`~policies.handwritten.LaserPolicy`) against the angle away from the goal.
+- :class:`PursuitPolicy` is the upper reference: it reads the ground truth (the episode's layout
+  and the robot's pose, ``env.unwrapped``), plans the shortest path with some room to spare and
+  follows it by pure pursuit. It drives the one env it was loaded for.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from numpy.typing import NDArray
+
+from bubblerob_env.tasks.goals import clearance_grid, plan_path
+from bubblerob_env.tasks.nav import BubbleRobNavEnv
+from policies.base import ActionMapper, Observation, batch_size, take
+from policies.handwritten import LaserPolicy
+from policies.observations import PolicyEnvMismatchError, check_observations
+
+__all__ = ["NAVIGATION_POLICIES", "NavigatorPolicy", "PursuitPolicy", "navigation_policy"]
+
+NAVIGATION_POLICIES = ("navigator", "pursuit")
+"""The built-in controllers of ``BubbleRobNav-v0`` / ``PioneerP3DXNav-v0``."""
+_HEADINGS = 41  # candidate headings, as LaserPolicy's
+_BUBBLEROB_RADIUS, _BUBBLEROB_SPEED = 0.11, 0.4  # what the gains below were tuned for
+
+
+def navigation_policy(
+    name: str, base: Any, space: spaces.Dict | None, mapper: ActionMapper
+) -> NavigatorPolicy | PursuitPolicy:
+    """The controller ``name`` (:data:`NAVIGATION_POLICIES`) for the Nav env ``base``."""
+    if not isinstance(base, BubbleRobNavEnv):
+        raise PolicyEnvMismatchError(
+            f"policy {name!r} drives to a goal: it needs a Nav env (BubbleRobNav-v0, "
+            f"PioneerP3DXNav-v0), got {type(base).__name__}"
+        )
+    laser = base.laser_spec
+    if laser is None:
+        raise ValueError(f"the {name} policy needs an env with a laser (laser_num_rays > 0)")
+    if space is not None:
+        check_observations(name, {"goal": (2,), "laser": (laser.num_rays,)}, space)
+    if name == "pursuit":
+        return PursuitPolicy(mapper, base)
+    max_heading = math.pi if laser.full_circle else laser.fov / 2 - math.radians(10)
+    gap = LaserPolicy(mapper, laser, **_scaled_gap_law(base.robot.radius, mapper, max_heading))
+    return NavigatorPolicy(gap, max_heading, base.robot.radius)
+
+
+def _scaled_gap_law(radius: float, mapper: ActionMapper, max_heading: float) -> dict[str, Any]:
+    """The gap follower's widths scaled by the robot's radius, its look-ahead by its speed."""
+    size, speed = radius / _BUBBLEROB_RADIUS, mapper.linear_limit / _BUBBLEROB_SPEED
+    return {
+        "half_width": radius,
+        "margin": 0.06 * size,
+        "horizon": 1.5 * speed,
+        "max_heading": max_heading,
+        "boxed_in": 0.2 * size,
+        "slow_down": (0.15 * size, 0.6 * speed),
+    }
+
+
+class _OneByOne:
+    """``predict`` on one observation or a batch, one observation at a time; no state."""
+
+    def predict(
+        self,
+        observation: Observation,
+        state: Any = None,
+        episode_start: NDArray[np.bool_] | None = None,
+        deterministic: bool = True,
+    ) -> tuple[NDArray[np.float32], None]:
+        """SB3's call: the action for one observation, or actions ``(n, 2)`` for a batch."""
+        n = batch_size(observation)
+        if n is None:
+            return self._act(observation), None
+        return np.stack([self._act(take(observation, i)) for i in range(n)]), None
+
+    def reset(self) -> None:
+        """Nothing carried between episodes."""
+
+    def _act(self, obs: Observation) -> NDArray[np.float32]:
+        raise NotImplementedError
+
+
+class NavigatorPolicy(_OneByOne):
+    """Goal seeking with the gap follower's avoidance, from the observation alone.
+
+    Each candidate heading scores its free corridor length (the gap follower's, capped at the
+    goal's distance plus a margin: beyond the goal nothing matters) minus ``goal_weight`` metres
+    per radian between it and the goal's bearing. It steers to the best, turning in place when
+    that is more than 90 degrees off (or, with a scan narrower than a circle, when the goal is
+    behind), and slows as the corridor ahead or the goal's distance shrinks.
+    """
+
+    name = "navigator"
+
+    def __init__(
+        self, gap: LaserPolicy, max_heading: float, radius: float, goal_weight: float = 0.5
+    ) -> None:
+        self.gap = gap
+        self.mapper = gap.mapper
+        self.headings = np.linspace(-max_heading, max_heading, _HEADINGS)
+        self.max_heading = max_heading
+        self.radius = radius
+        self.goal_weight = goal_weight * gap.horizon / 1.5
+
+    def _act(self, obs: Observation) -> NDArray[np.float32]:
+        distance, bearing = (float(v) for v in np.asarray(obs["goal"]))
+        free = self.gap.free_length(obs["laser"])
+        angular_limit = self.mapper.angular_limit
+        if abs(bearing) > self.max_heading + math.radians(5):  # the goal is outside the scan
+            return self.mapper.from_twist(0.0, math.copysign(0.6 * angular_limit, bearing))
+        reach = np.minimum(free, distance + 2.0 * self.radius)
+        off_goal = np.abs(np.remainder(self.headings - bearing + math.pi, math.tau) - math.pi)
+        best = int(np.argmax(reach - self.goal_weight * off_goal))
+        heading = float(self.headings[best])
+        if free[best] < self.gap.boxed_in:  # boxed in: turn in place towards more room
+            side = 1.0 if free[self.headings > 0].max() >= free[self.headings < 0].max() else -1.0
+            return self.mapper.from_twist(0.0, side * 0.6 * angular_limit)
+        angular = float(np.clip(self.gap.turn_gain * heading, -angular_limit, angular_limit))
+        if abs(heading) > math.pi / 2:
+            return self.mapper.from_twist(0.0, angular)
+        stop, ramp = self.gap.slow_down
+        ahead = min(free[len(free) // 2], free[best])
+        fraction = float(np.clip((ahead - stop) / ramp, 0.15, 1.0))
+        fraction = min(fraction, max(0.3, distance / (4.0 * self.radius)))
+        speed = self.mapper.linear_limit * fraction * max(0.0, math.cos(heading))
+        return self.mapper.from_twist(speed, angular)
+
+
+class PursuitPolicy(_OneByOne):
+    """Pure pursuit on the ground-truth shortest path: an upper reference, not a baseline.
+
+    At each new episode of its env it plans the shortest path from the robot to the goal on the
+    ground-truth grid widened by ``clearance`` robot radii (less if that closes every way, down
+    to one radius: the env's own grid), then steers at the path point ``lookahead`` radii ahead
+    with pure pursuit's curvature ``2 sin(alpha) / L``, turning in place when that point is more
+    than 60 degrees off the heading.
+    """
+
+    name = "pursuit"
+
+    def __init__(
+        self,
+        mapper: ActionMapper,
+        env: BubbleRobNavEnv,
+        clearance: tuple[float, ...] = (1.8, 1.5, 1.25, 1.0),
+        lookahead: float = 2.5,
+    ) -> None:
+        self.mapper = mapper
+        self.env = env
+        self.clearance = clearance
+        self.lookahead = lookahead * env.robot.radius
+        self.path: NDArray[np.float64] = np.zeros((0, 2))
+        """The path being followed, resampled every tenth of a radius."""
+        self._planned_for: object = None
+        self._progress = 0
+
+    def _plan(self) -> None:
+        env = self.env
+        assert env.layout is not None and env.problem is not None
+        start, goal = env.robot_pose[:2], env.problem.goal
+        radius = env.robot.radius
+        path = env.problem.path
+        for factor in self.clearance:
+            grid = clearance_grid(env.layout, float(env.arena_size), factor * radius)
+            planned = plan_path(grid, (start[0], start[1]), goal)
+            if planned is not None:
+                path = planned
+                break
+        self.path = _resampled(path, 0.1 * radius)
+        self._planned_for = env.problem
+        self._progress = 0
+
+    def _act(self, obs: Observation) -> NDArray[np.float32]:
+        env = self.env
+        if env.problem is not self._planned_for:
+            self._plan()
+        x, y, yaw = env.robot_pose
+        gaps = np.hypot(self.path[:, 0] - x, self.path[:, 1] - y)
+        window = slice(self._progress, self._progress + max(1, round(len(self.path) / 4)) + 20)
+        self._progress += int(np.argmin(gaps[window]))
+        beyond = np.flatnonzero(gaps[self._progress :] >= self.lookahead)
+        target = self.path[self._progress + beyond[0]] if beyond.size else self.path[-1]
+        alpha = math.remainder(math.atan2(target[1] - y, target[0] - x) - yaw, math.tau)
+        if abs(alpha) > math.radians(60):
+            return self.mapper.from_twist(
+                0.0, math.copysign(0.6 * self.mapper.angular_limit, alpha)
+            )
+        distance = max(float(np.hypot(target[0] - x, target[1] - y)), 1e-6)
+        speed = self.mapper.linear_limit * max(0.3, math.cos(alpha))
+        return self.mapper.from_twist(speed, 2.0 * speed * math.sin(alpha) / distance)
+
+
+def _resampled(path: NDArray[np.float64], spacing: float) -> NDArray[np.float64]:
+    """``path``'s polyline as points every ``spacing`` metres (its corners kept)."""
+    points = [path[:1]]
+    for a, b in zip(path[:-1], path[1:], strict=True):
+        steps = max(1, math.ceil(float(np.hypot(*(b - a))) / spacing))
+        t = np.linspace(0.0, 1.0, steps + 1)[1:, None]
+        points.append(a + t * (b - a))
+    return np.vstack(points)
