@@ -66,25 +66,44 @@ def _scaled_gap_law(radius: float, mapper: ActionMapper, max_heading: float) -> 
 
 
 class _OneByOne:
-    """``predict`` on one observation or a batch, one observation at a time; no state."""
+    """``predict`` on one observation or a batch, one at a time, with a number of memory each.
+
+    The memory (NaN: none yet) is kept between calls when ``state`` is None, and forgotten where
+    ``episode_start`` is true or after :meth:`reset`.
+    """
+
+    def __init__(self) -> None:
+        self._memory: NDArray[np.float64] | None = None
 
     def predict(
         self,
         observation: Observation,
-        state: Any = None,
+        state: NDArray[np.float64] | None = None,
         episode_start: NDArray[np.bool_] | None = None,
         deterministic: bool = True,
-    ) -> tuple[NDArray[np.float32], None]:
+    ) -> tuple[NDArray[np.float32], NDArray[np.float64]]:
         """SB3's call: the action for one observation, or actions ``(n, 2)`` for a batch."""
         n = batch_size(observation)
-        if n is None:
-            return self._act(observation), None
-        return np.stack([self._act(take(observation, i)) for i in range(n)]), None
+        count = 1 if n is None else n
+        memory = state if state is not None else self._memory
+        if memory is None or memory.shape[0] != count:
+            memory = np.full(count, np.nan)
+        memory = memory.copy()
+        if episode_start is not None:
+            memory[np.asarray(episode_start, dtype=bool).reshape(count)] = np.nan
+        actions = np.empty((count, 2), dtype=np.float32)
+        for i in range(count):
+            actions[i], memory[i] = self._act(
+                take(observation, None if n is None else i), memory[i]
+            )
+        self._memory = memory
+        return (actions[0] if n is None else actions), memory
 
     def reset(self) -> None:
-        """Nothing carried between episodes."""
+        """Forget the memory."""
+        self._memory = None
 
-    def _act(self, obs: Observation) -> NDArray[np.float32]:
+    def _act(self, obs: Observation, memory: float) -> tuple[NDArray[np.float32], float]:
         raise NotImplementedError
 
 
@@ -93,45 +112,59 @@ class NavigatorPolicy(_OneByOne):
 
     Each candidate heading scores its free corridor length (the gap follower's, capped at the
     goal's distance plus a margin: beyond the goal nothing matters) minus ``goal_weight`` metres
-    per radian between it and the goal's bearing. It steers to the best, turning in place when
-    that is more than 90 degrees off (or, with a scan narrower than a circle, when the goal is
-    behind), and slows as the corridor ahead or the goal's distance shrinks.
+    per radian between it and the goal's bearing, minus ``commit_weight`` metres per radian
+    between its angle from the goal and the last step's (the memory): once it goes round an
+    obstacle on one side it keeps to that side instead of swinging between the two. It steers to
+    the best heading, turning in place when that is more than 90 degrees off (or, with a scan
+    narrower than a circle, when the goal is behind), and slows as the corridor ahead or the
+    goal's distance shrinks.
     """
 
     name = "navigator"
 
     def __init__(
-        self, gap: LaserPolicy, max_heading: float, radius: float, goal_weight: float = 0.5
+        self,
+        gap: LaserPolicy,
+        max_heading: float,
+        radius: float,
+        goal_weight: float = 0.5,
+        commit_weight: float = 0.3,
     ) -> None:
+        super().__init__()
         self.gap = gap
         self.mapper = gap.mapper
         self.headings = np.linspace(-max_heading, max_heading, _HEADINGS)
         self.max_heading = max_heading
         self.radius = radius
         self.goal_weight = goal_weight * gap.horizon / 1.5
+        self.commit_weight = commit_weight * gap.horizon / 1.5
 
-    def _act(self, obs: Observation) -> NDArray[np.float32]:
+    def _act(self, obs: Observation, memory: float) -> tuple[NDArray[np.float32], float]:
         distance, bearing = (float(v) for v in np.asarray(obs["goal"]))
         free = self.gap.free_length(obs["laser"])
-        angular_limit = self.mapper.angular_limit
+        turn = 0.6 * self.mapper.angular_limit
         if abs(bearing) > self.max_heading + math.radians(5):  # the goal is outside the scan
-            return self.mapper.from_twist(0.0, math.copysign(0.6 * angular_limit, bearing))
+            return self.mapper.from_twist(0.0, math.copysign(turn, bearing)), math.nan
         reach = np.minimum(free, distance + 2.0 * self.radius)
-        off_goal = np.abs(np.remainder(self.headings - bearing + math.pi, math.tau) - math.pi)
-        best = int(np.argmax(reach - self.goal_weight * off_goal))
+        off_goal = np.remainder(self.headings - bearing + math.pi, math.tau) - math.pi
+        score = reach - self.goal_weight * np.abs(off_goal)
+        if math.isfinite(memory):
+            score -= self.commit_weight * np.abs(off_goal - memory)
+        best = int(np.argmax(score))
         heading = float(self.headings[best])
-        if free[best] < self.gap.boxed_in:  # boxed in: turn in place towards more room
+        if free[best] < min(self.gap.boxed_in, distance):  # boxed in: turn towards more room
             side = 1.0 if free[self.headings > 0].max() >= free[self.headings < 0].max() else -1.0
-            return self.mapper.from_twist(0.0, side * 0.6 * angular_limit)
-        angular = float(np.clip(self.gap.turn_gain * heading, -angular_limit, angular_limit))
+            return self.mapper.from_twist(0.0, side * turn), memory
+        limit = self.mapper.angular_limit
+        angular = float(np.clip(self.gap.turn_gain * heading, -limit, limit))
         if abs(heading) > math.pi / 2:
-            return self.mapper.from_twist(0.0, angular)
+            return self.mapper.from_twist(0.0, angular), float(off_goal[best])
         stop, ramp = self.gap.slow_down
         ahead = min(free[len(free) // 2], free[best])
         fraction = float(np.clip((ahead - stop) / ramp, 0.15, 1.0))
         fraction = min(fraction, max(0.3, distance / (4.0 * self.radius)))
         speed = self.mapper.linear_limit * fraction * max(0.0, math.cos(heading))
-        return self.mapper.from_twist(speed, angular)
+        return self.mapper.from_twist(speed, angular), float(off_goal[best])
 
 
 class PursuitPolicy(_OneByOne):
@@ -153,6 +186,7 @@ class PursuitPolicy(_OneByOne):
         clearance: tuple[float, ...] = (1.8, 1.5, 1.25, 1.0),
         lookahead: float = 2.5,
     ) -> None:
+        super().__init__()
         self.mapper = mapper
         self.env = env
         self.clearance = clearance
@@ -178,7 +212,7 @@ class PursuitPolicy(_OneByOne):
         self._planned_for = env.problem
         self._progress = 0
 
-    def _act(self, obs: Observation) -> NDArray[np.float32]:
+    def _act(self, obs: Observation, memory: float) -> tuple[NDArray[np.float32], float]:
         env = self.env
         if env.problem is not self._planned_for:
             self._plan()
@@ -190,12 +224,11 @@ class PursuitPolicy(_OneByOne):
         target = self.path[self._progress + beyond[0]] if beyond.size else self.path[-1]
         alpha = math.remainder(math.atan2(target[1] - y, target[0] - x) - yaw, math.tau)
         if abs(alpha) > math.radians(60):
-            return self.mapper.from_twist(
-                0.0, math.copysign(0.6 * self.mapper.angular_limit, alpha)
-            )
+            turn = math.copysign(0.6 * self.mapper.angular_limit, alpha)
+            return self.mapper.from_twist(0.0, turn), memory
         distance = max(float(np.hypot(target[0] - x, target[1] - y)), 1e-6)
         speed = self.mapper.linear_limit * max(0.3, math.cos(alpha))
-        return self.mapper.from_twist(speed, 2.0 * speed * math.sin(alpha) / distance)
+        return self.mapper.from_twist(speed, 2.0 * speed * math.sin(alpha) / distance), memory
 
 
 def _resampled(path: NDArray[np.float64], spacing: float) -> NDArray[np.float64]:
