@@ -29,7 +29,9 @@ def add_subcommands(subparsers: Any) -> None:
         help="evaluate policies on validation or test seeds and print one table",
         description="Run each policy for the same episodes (seeds SEED, SEED+1, ...; by "
         "default validation seeds from 1000, never started by training) and print one table "
-        "with the success rate's Wilson 95% interval; optionally record one episode as a video. "
+        "with the success rate's Wilson 95% interval (on a Nav env: success, collision and timeout "
+        "with theirs, SPL, extra time and distance over the shortest path, speed); optionally "
+        "record one episode as a video. "
         "Choose on validation seeds; report on --split test (policies/protocol.py).",
     )
     parser.add_argument(
@@ -37,7 +39,7 @@ def add_subcommands(subparsers: Any) -> None:
         action="append",
         required=True,
         help="reactive, laser, random, ppo, or a path to an exported .onnx or an SB3 .zip; "
-        "repeat to compare",
+        "navigator or pursuit on a Nav env (--env BubbleRobNav-v0); repeat to compare",
     )
     parser.add_argument("--episodes", type=int, default=100, help="episodes per policy")
     parser.add_argument(
@@ -58,7 +60,8 @@ def add_subcommands(subparsers: Any) -> None:
         "--per-episode",
         type=Path,
         metavar="JSON",
-        help="also write each episode's seed, outcome, length, return and speed to this file",
+        help="also write each episode's seed, outcome, length, return and speed to this file "
+        "(on a Nav env also its goal, shortest and driven path, time and SPL)",
     )
     parser.add_argument(
         "--video", type=Path, help="also write the first episode (seed SEED) as .mp4 or .gif"

@@ -15,6 +15,7 @@ import numpy as np
 from bubblerob_env import BubbleRobEnv
 from bubblerob_env.wrappers import TopDownView
 from policies.loading import load_policy
+from policies.navigation_metrics import NavMetrics, episode_record, format_nav_table, nav_metrics
 from policies.protocol import wilson_interval
 
 __all__ = [
@@ -51,7 +52,10 @@ class EvalResult:
     mean_return: float
     per_episode: tuple[dict[str, Any], ...] = ()
     """One record per episode, in seed order: ``seed``, ``succeeded``, ``collided``, ``length``,
-    ``return`` and ``speed`` (its mean speed fraction), for ``evaluate --per-episode``."""
+    ``return`` and ``speed`` (its mean speed fraction), for ``evaluate --per-episode``; a Nav
+    env's also its navigation fields (:func:`~policies.navigation_metrics.episode_record`)."""
+    navigation: NavMetrics | None = None
+    """A Nav env's success, SPL, extra time and distance (:mod:`policies.navigation_metrics`)."""
 
     @property
     def success_interval(self) -> tuple[float, float]:
@@ -69,6 +73,8 @@ class EpisodeStats:
     succeeded: bool
     speed_fractions: tuple[float, ...]
     seed: int = -1
+    navigation: dict[str, Any] | None = None
+    """A Nav env's episode: its navigation fields (outcome, shortest and driven path, time)."""
 
 
 class FrameSink(Protocol):
@@ -118,6 +124,10 @@ def run_episode(
             on_step()
         if terminated or truncated:
             break
+    navigation = None
+    if "shortest_path_length" in info:  # a Nav env (bubblerob_env.tasks.nav)
+        radius = float(getattr(base, "goal_radius", 0.0))
+        navigation = episode_record(info, len(speeds), base.dt, max_speed, radius)
     return EpisodeStats(
         length=len(speeds),
         total_reward=total,
@@ -125,6 +135,7 @@ def run_episode(
         succeeded=bool(info["is_success"]),
         speed_fractions=tuple(speeds),
         seed=seed,
+        navigation=navigation,
     )
 
 
@@ -138,6 +149,7 @@ def summarize(policy_name: str, episodes: Sequence[EpisodeStats]) -> EvalResult:
             "length": e.length,
             "return": e.total_reward,
             "speed": float(np.mean(e.speed_fractions)),
+            **(e.navigation or {}),
         }
         for e in episodes
     ]
@@ -159,6 +171,7 @@ def summarize_records(policy_name: str, records: Sequence[dict[str, Any]]) -> Ev
         mean_length=float(lengths.mean()),
         mean_return=float(np.mean([r["return"] for r in records])),
         per_episode=tuple(records),
+        navigation=nav_metrics(records),
     )
 
 
@@ -188,7 +201,14 @@ def evaluate(
 
 
 def format_table(results: Sequence[EvalResult], markdown: bool = False) -> str:
-    """One table, a row per policy; success with its Wilson 95% interval."""
+    """One table, a row per policy; success with its Wilson 95% interval.
+
+    Results of a Nav env get the navigation table
+    (:func:`~policies.navigation_metrics.format_nav_table`).
+    """
+    navigation = [(r.policy, r.navigation) for r in results if r.navigation is not None]
+    if results and len(navigation) == len(results):
+        return format_nav_table(navigation, markdown)
     header = [
         "policy", "episodes", "success", "95%CI", "collision", "speed/max", "length",
         "return",
