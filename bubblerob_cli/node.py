@@ -6,11 +6,13 @@ import argparse
 import math
 import os
 import signal
+import sys
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 from bubblerob_cli.args import add_env_arguments, make_env
 from bubblerob_cli.errors import fail
+from bubblerob_env.extras import require_extra
 from bubblerob_env.ros.live.node import LAUNCH_DIR
 from bubblerob_env.ros.messages.topics import PRESETS
 
@@ -60,6 +62,7 @@ def add_subcommands(subparsers: Any) -> None:
         default=1,
         help="ROS 1 (rospy, default) or ROS 2 (rclpy, Jazzy)",
     )
+    _add_foxglove_arguments(node)
     mode = node.add_mutually_exclusive_group()
     mode.add_argument(
         "--rate-factor",
@@ -87,6 +90,27 @@ def add_subcommands(subparsers: Any) -> None:
     add_env_arguments(node)
     _add_later_arguments(node)
     node.set_defaults(handler=_node)
+
+
+def _add_foxglove_arguments(node: argparse.ArgumentParser) -> None:
+    """``--foxglove``, ``--host``, ``--port``: serve Foxglove's WebSocket protocol, no ROS."""
+    node.add_argument(
+        "--foxglove",
+        action="store_true",
+        help="no ROS: serve the topics to Foxglove over its WebSocket protocol (foxglove-sdk; "
+        "the [foxglove] extra); replaces --ros",
+    )
+    node.add_argument(
+        "--host",
+        default="127.0.0.1",
+        help="with --foxglove: address to listen on (0.0.0.0: every interface)",
+    )
+    node.add_argument(
+        "--port",
+        type=int,
+        default=8765,
+        help="with --foxglove: port to listen on (0: any free one)",
+    )
 
 
 def _add_simulation_arguments(node: argparse.ArgumentParser) -> None:
@@ -155,6 +179,8 @@ def _usage_error(args: argparse.Namespace) -> str | None:
     """What is wrong with the node's numeric options, in one line, or ``None``."""
     if not 0 <= args.seed <= 2**63 - 1:
         return f"--seed must be an int from 0 to {2**63 - 1}, got {args.seed}"
+    if not 0 <= args.port <= 65535:
+        return f"--port must be 0 (any free port) to 65535, got {args.port}"
     for option, value in (("--max-steps", args.max_steps), ("--steps", args.steps)):
         if value is not None and value < 1:
             return f"{option} must be at least 1, got {value}"
@@ -179,6 +205,8 @@ def _node(args: argparse.Namespace) -> int:
     problem = _usage_error(args)
     if problem is not None:
         fail("node", problem)
+    if args.foxglove:
+        require_extra("foxglove", "node")
     kwargs = _env_kwargs(args)
     if kwargs.get("action_type", "wheels") != "wheels":
         fail("node", "the node drives the wheels: action_type must be 'wheels' (cmd_vel is mapped)")
@@ -191,9 +219,12 @@ def _node(args: argparse.Namespace) -> int:
     backend = _start_backend(args, env)
     config = _follow_clock(args, backend, config)
     node = SimNode(env, backend, topics, CONTROL_PRESETS.get(args.topics), config=config)
+    where = f"ROS {args.ros}"
+    if args.foxglove:
+        where = _serve_foxglove(backend, node, args.namespace)
     previous = signal.signal(signal.SIGTERM, lambda *_: node.request_stop())
     print(
-        f"bubblerob node: ROS {args.ros}, {len(node.publisher.sink.topics)} topics, "
+        f"bubblerob node: {where}, {len(node.publisher.sink.topics)} topics, "
         f"{'sync mode' if args.sync else f'rate factor {args.rate_factor:g}'}; ready",
         flush=True,
     )
@@ -237,15 +268,37 @@ def _topics_and_config(args: argparse.Namespace) -> tuple[Topics, NodeConfig]:
 
 
 def _start_backend(args: argparse.Namespace, env: Any) -> LiveBackend:
-    """The ROS node of ``--ros``; one line and exit 2 (the env closed) if it cannot start."""
+    """The ROS node of ``--ros`` or ``--foxglove``'s server; one line and exit 2 if it cannot start.
+
+    The env is closed before exiting.
+    """
     from bubblerob_env.ros.live.backend import BackendError
     from bubblerob_env.ros.live.connect import load_backend
 
     try:
+        if args.foxglove:
+            from bubblerob_env.ros.live.foxglove import FoxgloveBackend
+
+            return FoxgloveBackend(args.host, args.port, logger=_log_line)
         return load_backend(args.ros, namespace=args.namespace, master_timeout=args.master_timeout)
     except BackendError as error:
         env.close()
         fail("node", str(error))
+
+
+def _log_line(level: str, text: str) -> None:
+    """The Foxglove server's log: one line on stderr (ROS nodes log to rosout)."""
+    print(f"bubblerob node: {'warning: ' if level == 'warn' else ''}{text}", file=sys.stderr)
+
+
+def _serve_foxglove(backend: LiveBackend, node: SimNode, namespace: str) -> str:
+    """Add the simulation services to the Foxglove server; where clients connect to it."""
+    from bubblerob_env.ros.live.foxglove import SUBPROTOCOL, FoxgloveBackend
+    from bubblerob_env.ros.live.foxglove_services import add_simulation_services
+
+    assert isinstance(backend, FoxgloveBackend)
+    add_simulation_services(backend, node, namespace)
+    return f"Foxglove at {backend.url} (WebSocket subprotocol {SUBPROTOCOL})"
 
 
 def _follow_clock(args: argparse.Namespace, backend: LiveBackend, config: NodeConfig) -> NodeConfig:
@@ -253,7 +306,7 @@ def _follow_clock(args: argparse.Namespace, backend: LiveBackend, config: NodeCo
     from bubblerob_env.ros.live.node import shared_clock_ns
     from bubblerob_env.ros.messages.topics import topics_preset
 
-    if not args.no_clock or args.start_time is not None:
+    if not args.no_clock or args.start_time is not None or args.foxglove:
         return config
     shared = topics_preset(args.topics, args.namespace).resolved().get("clock")
     start = shared_clock_ns(backend, shared, 10.0) if shared else None
