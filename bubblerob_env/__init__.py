@@ -13,6 +13,8 @@ from bubblerob_env._headless import use_egl_without_display
 
 use_egl_without_display()
 
+from typing import Any  # noqa: E402
+
 from gymnasium.envs.registration import register  # noqa: E402
 
 from bubblerob_env.arena import ArenaLayout, Obstacle  # noqa: E402
@@ -48,8 +50,28 @@ __all__ = [
     "StaticTransform",
     "TopDownRenderer",
     "TopDownView",
+    "parallel_env",
 ]
 __version__ = "0.1.0"
+
+
+def parallel_env(num_robots: int = 2, robot: str = "bubblerob", **kwargs: Any) -> Any:
+    """Several robots in one world, a PettingZoo ``ParallelEnv`` (the ``multi`` extra).
+
+    See :func:`bubblerob_env.multi.parallel_env`; imported on call, so the package needs no
+    PettingZoo.
+    """
+    try:
+        from bubblerob_env.multi import parallel_env as make_parallel_env
+    except ModuleNotFoundError as error:
+        if error.name != "pettingzoo":
+            raise
+        raise ModuleNotFoundError(
+            "bubblerob_env.parallel_env needs the [multi] extra: pip install 'bubblerob[multi]'",
+            name="pettingzoo",
+        ) from None
+    return make_parallel_env(num_robots, robot, **kwargs)
+
 
 for _robot in ROBOTS.values():
     register(

@@ -36,8 +36,12 @@ __all__ = [
     "RobotState",
     "Settings",
     "Tables",
+    "observe",
     "observe_robots",
+    "readings",
+    "reward",
     "step_robots",
+    "wheel_command",
 ]
 
 
@@ -393,3 +397,11 @@ def _sense(
         geomid[i],
     )
     return _readings(dist[i], noise[i], icfg[ICFG.NOISE] != 0, cfg, laser[i])
+
+
+# The parts of one robot's step that robots sharing a world reuse (core/worlds.py): the same
+# compiled functions, so a world of one robot steps bit for bit as the single env.
+wheel_command = _wheel_command
+observe = _observe
+readings = _readings
+reward = _reward

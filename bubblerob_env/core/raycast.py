@@ -19,7 +19,15 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ["GEOM_BOX", "GEOM_CYLINDER", "cast_prisms", "ray_box", "ray_cylinder", "world_rays"]
+__all__ = [
+    "GEOM_BOX",
+    "GEOM_CYLINDER",
+    "cast_cylinders",
+    "cast_prisms",
+    "ray_box",
+    "ray_cylinder",
+    "world_rays",
+]
 
 GEOM_CYLINDER = 5  # mjtGeom values (mujoco.mjtGeom.mjGEOM_CYLINDER, mjGEOM_BOX)
 GEOM_BOX = 6
@@ -368,3 +376,36 @@ def _cylinder_sides(
     if sol >= 0 and abs(p2 + sol * v2) <= half_height and (x < 0 or sol < x):
         x = sol
     return x
+
+
+@njit(cache=True, nogil=True)
+def cast_cylinders(
+    pnt: NDArray[np.float64],
+    dirs: NDArray[np.float64],
+    cutoff: float,
+    geoms: NDArray[np.int32],
+    geom_xpos: NDArray[np.float64],
+    geom_xmat: NDArray[np.float64],
+    geom_size: NDArray[np.float64],
+    geom_rbound: NDArray[np.float64],
+    dist: NDArray[np.float64],
+) -> None:  # pragma: no cover - numba
+    """Lower ``dist`` (-1: no hit yet) where a ray hits one of ``geoms``, cylinders in any pose.
+
+    For geoms that move and tilt (other robots' laser windows): no footprint culling, only
+    ``mj_multiRay``'s distance cut and each ray's bounding-sphere test inside MuJoCo's own
+    :func:`ray_cylinder`, so every reading is exactly ``mj_multiRay``'s. Geoms with a negative id
+    are skipped.
+    """
+    for gi in range(geoms.shape[0]):
+        g = geoms[gi]
+        if g < 0:
+            continue
+        pos, mat, size = geom_xpos[g], geom_xmat[g], geom_size[g]
+        d0, d1, d2 = pos[0] - pnt[0], pos[1] - pnt[1], pos[2] - pnt[2]
+        if math.sqrt(d0 * d0 + d1 * d1 + d2 * d2) > cutoff + geom_rbound[g]:
+            continue
+        for r in range(dirs.shape[0]):
+            x = ray_cylinder(pos, mat, size, pnt, dirs[r])
+            if x >= 0 and (dist[r] < 0 or x < dist[r]):
+                dist[r] = x

@@ -30,7 +30,11 @@ BUBBLEROB = RobotDescription(
     radius=0.11,
     max_wheel_speed=10.0,  # 0.4 m/s at the 0.04 m rim
     # A 360-degree scanner, one ray a degree, 5 m: a small hobby lidar's reach at this size.
-    laser=LaserDefaults(num_rays=360, fov=2.0 * math.pi, range_min=0.05, range_max=5.0),
+    # The window: the housing's radius, 2.5 cm tall about the laser's plane (0.18 m), the only
+    # part of a BubbleRob at that height (the chassis ends at 0.165 m).
+    laser=LaserDefaults(
+        num_rays=360, fov=2.0 * math.pi, range_min=0.05, range_max=5.0, window=(0.025, 0.0125)
+    ),
     # The tutorial's FrontUS: an ultrasonic sensor on the nose; sensorTrigger under 0.3 m.
     proximity=ProximityDefaults(range_max=0.6, trigger_distance=0.3),
     arena=ArenaDefaults(

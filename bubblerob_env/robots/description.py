@@ -42,6 +42,10 @@ class LaserDefaults:
     range_max: float
     publish_every: int = 1
     """Control steps between two scans a ROS stream publishes (the tutorial's Pioneer: 4)."""
+    window: tuple[float, float] = (0.0, 0.0)
+    """``(radius, half height)`` (m) of the scanner's window, a cylinder centred on the laser's
+    plane: what another robot's laser sees of this robot in a world of several robots
+    (:mod:`bubblerob_env.multi`), as a real lidar sees another robot's lidar."""
 
 
 @dataclass(frozen=True)

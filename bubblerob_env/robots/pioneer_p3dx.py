@@ -60,7 +60,16 @@ PIONEER_P3DX = RobotDescription(
     radius=0.30,
     max_wheel_speed=round(TOP_SPEED / WHEEL_RADIUS, 2),  # 12.31 rad/s, the motors' ctrlrange
     max_angular_speed=math.radians(300.0),
-    laser=LaserDefaults(num_rays=901, fov=math.pi, range_min=0.1, range_max=50.0, publish_every=4),
+    # The window: the housing's radius, 4 cm tall about the laser's plane (0.31 m), above the
+    # top plate (0.237 m).
+    laser=LaserDefaults(
+        num_rays=901,
+        fov=math.pi,
+        range_min=0.1,
+        range_max=50.0,
+        publish_every=4,
+        window=(0.05, 0.02),
+    ),
     proximity=ProximityDefaults(range_max=4.0, trigger_distance=0.8),
     arena=ArenaDefaults(
         size=10.0,
