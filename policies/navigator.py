@@ -48,8 +48,10 @@ def navigation_policy(
     if name == "pursuit":
         return PursuitPolicy(mapper, base)
     max_heading = math.pi if laser.full_circle else laser.fov / 2 - math.radians(10)
-    gap = LaserPolicy(mapper, laser, **_scaled_gap_law(base.robot.radius, mapper, max_heading))
-    return NavigatorPolicy(gap, max_heading, base.robot.radius)
+    law = _scaled_gap_law(base.robot.radius, mapper, max_heading)
+    gap = LaserPolicy(mapper, laser, **law)
+    tight = LaserPolicy(mapper, laser, **{**law, "margin": 0.25 * law["margin"]})
+    return NavigatorPolicy(gap, max_heading, base.robot.radius, tight)
 
 
 def _scaled_gap_law(radius: float, mapper: ActionMapper, max_heading: float) -> dict[str, Any]:
@@ -116,8 +118,10 @@ class NavigatorPolicy(_OneByOne):
     between its angle from the goal and the last step's (the memory): once it goes round an
     obstacle on one side it keeps to that side instead of swinging between the two. It steers to
     the best heading, turning in place when that is more than 90 degrees off (or, with a scan
-    narrower than a circle, when the goal is behind), and slows as the corridor ahead or the
-    goal's distance shrinks.
+    narrower than a circle, when the goal is behind and it is not going round something), and
+    slows as the corridor ahead or the goal's distance shrinks. Within the gap follower's horizon
+    of the goal its corridors keep a quarter of the margin (``tight``): a goal may lie in a gap
+    that is free for the robot but not for the margin.
     """
 
     name = "navigator"
@@ -127,11 +131,13 @@ class NavigatorPolicy(_OneByOne):
         gap: LaserPolicy,
         max_heading: float,
         radius: float,
+        tight: LaserPolicy | None = None,
         goal_weight: float = 0.5,
         commit_weight: float = 0.3,
     ) -> None:
         super().__init__()
         self.gap = gap
+        self.tight = gap if tight is None else tight
         self.mapper = gap.mapper
         self.headings = np.linspace(-max_heading, max_heading, _HEADINGS)
         self.max_heading = max_heading
@@ -141,10 +147,14 @@ class NavigatorPolicy(_OneByOne):
 
     def _act(self, obs: Observation, memory: float) -> tuple[NDArray[np.float32], float]:
         distance, bearing = (float(v) for v in np.asarray(obs["goal"]))
-        free = self.gap.free_length(obs["laser"])
+        # Close to the goal, a corridor with less margin: goals may lie in tight spots.
+        near = distance < self.gap.horizon
+        free = (self.tight if near else self.gap).free_length(obs["laser"])
         turn = 0.6 * self.mapper.angular_limit
-        if abs(bearing) > self.max_heading + math.radians(5):  # the goal is outside the scan
-            return self.mapper.from_twist(0.0, math.copysign(turn, bearing)), math.nan
+        outside = abs(bearing) > self.max_heading + math.radians(5)  # behind a narrow scan
+        detouring = math.isfinite(memory) and abs(memory) > math.pi / 3
+        if outside and not detouring:  # turn to face it (going round something: carry on)
+            return self.mapper.from_twist(0.0, math.copysign(turn, bearing)), memory
         reach = np.minimum(free, distance + 2.0 * self.radius)
         off_goal = np.remainder(self.headings - bearing + math.pi, math.tau) - math.pi
         score = reach - self.goal_weight * np.abs(off_goal)
