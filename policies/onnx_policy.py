@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 from bubblerob_env.extras import MissingExtraError
 from policies.base import Policy
 from policies.observations import check_env, check_exact_keys, check_observations
-from policies.residual import on_gap_follower
+from policies.residual import check_scale, on_gap_follower
 
 __all__ = ["METADATA_KEY", "OnnxPolicy", "load_onnx", "read_metadata"]
 
@@ -107,4 +107,4 @@ def load_onnx(
     residual = policy.metadata.get("residual")
     if residual is None:
         return policy
-    return on_gap_follower(policy, env, space, float(residual["scale"]))
+    return on_gap_follower(policy, env, space, check_scale(residual.get("scale")))

@@ -17,6 +17,7 @@ the network the pooled one). A trained model replays it with :class:`ResidualPol
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import gymnasium as gym
@@ -43,8 +44,11 @@ reads its ``scale``)."""
 
 
 def check_scale(scale: Any) -> float:
-    """``scale`` as a float; ``ValueError`` unless it is in (0, 2]."""
-    value = float(scale)
+    """``scale`` as a float; ``ValueError`` unless it is a number in (0, 2] (or its text)."""
+    try:
+        value = float(scale) if not isinstance(scale, bool) else math.nan
+    except (TypeError, ValueError):
+        value = math.nan  # not a number: the message below says what is allowed
     if not 0.0 < value <= 2.0:
         raise ValueError(f"residual scale must be in (0, 2], got {scale!r}")
     return value

@@ -7,11 +7,32 @@ training. Only the training envs change; evaluation episodes are always the full
 
 from __future__ import annotations
 
+import math
+import operator
 from typing import Any
 
 from stable_baselines3.common.callbacks import BaseCallback
 
 __all__ = ["ObstacleCurriculum"]
+
+
+def _number(value: Any) -> float:
+    """``value`` as a float, NaN for anything else (which no range check accepts)."""
+    if isinstance(value, bool):
+        return math.nan
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return math.nan
+
+
+def _start_range(start: Any) -> tuple[int, int]:
+    """``[low, high]`` as two ints, ``(-1, -1)`` for anything else (refused by the caller)."""
+    try:
+        low, high = (operator.index(value) for value in start)  # ints, NumPy's too
+    except (TypeError, ValueError):
+        return -1, -1
+    return low, high
 
 
 class ObstacleCurriculum(BaseCallback):
@@ -25,15 +46,20 @@ class ObstacleCurriculum(BaseCallback):
         self, start: tuple[int, int] | list[int] = (0, 3), ramp_fraction: float = 0.5
     ) -> None:
         super().__init__()
-        low, high = (int(value) for value in start)
+        low, high = _start_range(start)
         if not 0 <= low <= high:
-            raise ValueError(f"ObstacleCurriculum start must be 0 <= low <= high, got {start!r}")
-        if not 0.0 < float(ramp_fraction) <= 1.0:
             raise ValueError(
-                f"ObstacleCurriculum ramp_fraction must be in (0, 1], got {ramp_fraction!r}"
+                f"ObstacleCurriculum start must be two ints [low, high] with 0 <= low <= high, "
+                f"got {start!r}"
+            )
+        fraction = _number(ramp_fraction)
+        if not 0.0 < fraction <= 1.0:
+            raise ValueError(
+                "ObstacleCurriculum ramp_fraction must be a number in (0, 1], "
+                f"got {ramp_fraction!r}"
             )
         self.start = (low, high)
-        self.ramp_fraction = float(ramp_fraction)
+        self.ramp_fraction = fraction
         self.target: tuple[int, int] = (low, high)
         self.current: tuple[int, int] | None = None
 

@@ -16,6 +16,7 @@ __all__ = [
     "check_hyperparams",
     "check_train_arguments",
     "parse_overrides",
+    "schedule_start",
 ]
 
 MAX_SEED = 2**32 - 1
@@ -90,8 +91,11 @@ def check_hyperparams(algo: str, config: dict[str, Any]) -> None:
             raise bad(key, "a number > 0")
     for key in _SCHEDULED:
         value: Any = config.get(key)
-        if key in config and not (isinstance(value, str) or _is_number(value) and value > 0):
+        if isinstance(value, str):
+            schedule_start(key, value)
+        elif key in config and not (_is_number(value) and value > 0):
             raise bad(key, "a number > 0 or a schedule such as 'lin_3e-4'")
+    _check_numbers_in_classes(config)
     if "batch_size" in config:
         low = 2 if algo == "ppo" else 1  # SB3's PPO normalises advantages over a minibatch
         if not (_is_int(config["batch_size"]) and config["batch_size"] >= low):
@@ -101,6 +105,43 @@ def check_hyperparams(algo: str, config: dict[str, Any]) -> None:
             f"n_steps * n_envs must be > 1 for PPO, got {config.get('n_steps')} * "
             f"{config.get('n_envs')}"
         )
+
+
+def _check_numbers_in_classes(config: dict[str, Any]) -> None:
+    """The numbers given to the project's own wrapper and callback, checked before training."""
+    from policies.runs import parse_env_wrapper, residual_scale
+
+    if config.get("env_wrapper"):
+        residual_scale(config["env_wrapper"])  # a ResidualOnLaser's scale: a number in (0, 2]
+    for name, kwargs in parse_env_wrapper(config.get("callback")):
+        if name == "train.callbacks.ObstacleCurriculum":
+            from train.callbacks import ObstacleCurriculum
+
+            try:
+                ObstacleCurriculum(**kwargs)  # its own one-line ValueError for a bad value
+            except TypeError:
+                allowed = "start=[low, high] and ramp_fraction"
+                raise TrainArgumentError(
+                    f"callback {name}: unknown arguments {sorted(kwargs)} (it takes {allowed})"
+                ) from None
+
+
+def schedule_start(key: str, text: str) -> float:
+    """The start of rl-zoo's ``lin_<value>`` schedule ``text`` of ``key``: a number > 0.
+
+    Raises:
+        TrainArgumentError: Anything else, in one line that names ``key`` and the value.
+    """
+    try:
+        start = float(text[len("lin_") :]) if text.startswith("lin_") else math.nan
+    except ValueError:
+        start = math.nan
+    if not (math.isfinite(start) and start > 0):
+        raise TrainArgumentError(
+            f"hyperparameter {key} must be a number > 0 or a schedule such as 'lin_3e-4', "
+            f"got {text!r}"
+        )
+    return start
 
 
 def parse_overrides(pairs: list[tuple[str, str]]) -> dict[str, Any]:

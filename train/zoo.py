@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from policies.runs import parse_env_wrapper
+from train.checks import schedule_start
 
 __all__ = [
     "ALGOS",
@@ -108,7 +109,7 @@ def schedules(config: dict[str, Any]) -> dict[str, Any]:
     resolved = {}
     for key, value in config.items():
         if isinstance(value, str) and value.startswith("lin_"):
-            start = float(value[len("lin_") :])
+            start = schedule_start(key, value)
             resolved[key] = lambda progress_remaining, start=start: progress_remaining * start
         else:
             resolved[key] = value
