@@ -199,6 +199,67 @@ def _local_angle(azimuth: float, inverse: NDArray[np.float64]) -> float:  # prag
 
 
 @njit(cache=True, nogil=True)
+def _horizontal_inverse(
+    xmat: NDArray[np.float64],
+) -> tuple[bool, NDArray[np.float64]]:  # pragma: no cover - numba
+    """Whether rays can be culled by azimuth, and the inverse of the laser's horizontal map.
+
+    The map takes a ray angle's (cos, sin) in the laser frame to its world direction's
+    horizontal part; culling needs it invertible (a laser tilted less than 90 degrees).
+    """
+    m00, m01, m10, m11 = xmat[0], xmat[1], xmat[3], xmat[4]
+    det = m00 * m11 - m01 * m10
+    cull = det > 1e-6
+    inverse = np.empty(4)
+    if cull:
+        inverse[0], inverse[1], inverse[2], inverse[3] = (
+            m11 / det,
+            -m01 / det,
+            -m10 / det,
+            m00 / det,
+        )
+    return cull, inverse
+
+
+@njit(cache=True, nogil=True)
+def _candidate_rays(
+    cull: bool,
+    inverse: NDArray[np.float64],
+    gtype: int,
+    pos: NDArray[np.float64],
+    mat: NDArray[np.float64],
+    size: NDArray[np.float64],
+    pnt: NDArray[np.float64],
+    angle_min: float,
+    increment: float,
+    full_circle: bool,
+    nray: int,
+) -> tuple[int, int, int]:  # pragma: no cover - numba
+    """``(first, count, second)``: the rays that may hit a prism's footprint.
+
+    Windows of indices ``[first, first + count)``, taken modulo ``nray`` for a full circle and
+    clamped to the fan otherwise (where the interval may also lie one turn lower: that is the
+    second window, from ``second``).
+    """
+    first, count, second = 0, nray, nray
+    if cull:
+        everywhere, lo, hi = _footprint_interval(gtype, pos, mat, size, pnt[0], pnt[1])
+        if not everywhere:
+            a_lo = _local_angle(lo, inverse)
+            span = _local_angle(hi, inverse) - a_lo
+            if span < 0:
+                span += _TWO_PI
+            offset = (a_lo - angle_min) % _TWO_PI
+            first = int(math.floor(offset / increment)) - 1
+            count = int(math.ceil(span / increment)) + 3
+            if full_circle:
+                count = min(count, nray)  # a whole turn: every ray once
+            else:
+                second = int(math.floor((offset - _TWO_PI) / increment)) - 1
+    return first, count, second
+
+
+@njit(cache=True, nogil=True)
 def cast_prisms(
     pnt: NDArray[np.float64],
     xmat: NDArray[np.float64],
@@ -224,42 +285,26 @@ def cast_prisms(
     """
     nray = dirs.shape[0]
     dist[:] = -1.0
-    # The laser's horizontal map from ray angle to world direction, and its inverse.
-    m00, m01, m10, m11 = xmat[0], xmat[1], xmat[3], xmat[4]
-    det = m00 * m11 - m01 * m10
-    cull = det > 1e-6
-    inverse = np.empty(4)
-    if cull:
-        inverse[0], inverse[1], inverse[2], inverse[3] = (
-            m11 / det,
-            -m01 / det,
-            -m10 / det,
-            m00 / det,
-        )
+    cull, inverse = _horizontal_inverse(xmat)
     for gi in range(geoms.shape[0]):
         g = geoms[gi]
         pos, mat, size = geom_xpos[g], geom_xmat[g], geom_size[g]
         d0, d1, d2 = pos[0] - pnt[0], pos[1] - pnt[1], pos[2] - pnt[2]
         if math.sqrt(d0 * d0 + d1 * d1 + d2 * d2) > cutoff + geom_rbound[g]:
             continue
-        # Candidate rays: windows of indices [first, first + count), taken modulo nray for a
-        # full circle and clamped to the fan otherwise (where the interval may also lie one
-        # turn lower: that is the second window).
-        first, count, second = 0, nray, nray
-        if cull:
-            everywhere, lo, hi = _footprint_interval(geom_type[g], pos, mat, size, pnt[0], pnt[1])
-            if not everywhere:
-                a_lo = _local_angle(lo, inverse)
-                span = _local_angle(hi, inverse) - a_lo
-                if span < 0:
-                    span += _TWO_PI
-                offset = (a_lo - angle_min) % _TWO_PI
-                first = int(math.floor(offset / increment)) - 1
-                count = int(math.ceil(span / increment)) + 3
-                if full_circle:
-                    count = min(count, nray)  # a whole turn: every ray once
-                else:
-                    second = int(math.floor((offset - _TWO_PI) / increment)) - 1
+        first, count, second = _candidate_rays(
+            cull,
+            inverse,
+            geom_type[g],
+            pos,
+            mat,
+            size,
+            pnt,
+            angle_min,
+            increment,
+            full_circle,
+            nray,
+        )
         is_box = geom_type[g] == GEOM_BOX
         if full_circle or not cull:
             _cast_window(first, count, nray, True, is_box, pos, mat, size, pnt, dirs, dist)
@@ -381,7 +426,11 @@ def _cylinder_sides(
 @njit(cache=True, nogil=True)
 def cast_cylinders(
     pnt: NDArray[np.float64],
+    xmat: NDArray[np.float64],
     dirs: NDArray[np.float64],
+    angle_min: float,
+    increment: float,
+    full_circle: bool,
     cutoff: float,
     geoms: NDArray[np.int32],
     geom_xpos: NDArray[np.float64],
@@ -392,11 +441,15 @@ def cast_cylinders(
 ) -> None:  # pragma: no cover - numba
     """Lower ``dist`` (-1: no hit yet) where a ray hits one of ``geoms``, cylinders in any pose.
 
-    For geoms that move and tilt (other robots' laser windows): no footprint culling, only
-    ``mj_multiRay``'s distance cut and each ray's bounding-sphere test inside MuJoCo's own
-    :func:`ray_cylinder`, so every reading is exactly ``mj_multiRay``'s. Geoms with a negative id
-    are skipped.
+    For geoms that move and tilt (other robots' laser windows), with the arguments of
+    :func:`cast_prisms`. The culling is conservative: a ray that meets a geom's bounding sphere
+    crosses, seen from above, the disk of the sphere's radius about its centre, so only the rays
+    pointing into that disk are tested, each with MuJoCo's own :func:`ray_cylinder` (bounding-
+    sphere test first): every reading is exactly ``mj_multiRay``'s. Negative ids are skipped.
     """
+    nray = dirs.shape[0]
+    cull, inverse = _horizontal_inverse(xmat)
+    bound = np.zeros(3)
     for gi in range(geoms.shape[0]):
         g = geoms[gi]
         if g < 0:
@@ -405,7 +458,18 @@ def cast_cylinders(
         d0, d1, d2 = pos[0] - pnt[0], pos[1] - pnt[1], pos[2] - pnt[2]
         if math.sqrt(d0 * d0 + d1 * d1 + d2 * d2) > cutoff + geom_rbound[g]:
             continue
-        for r in range(dirs.shape[0]):
-            x = ray_cylinder(pos, mat, size, pnt, dirs[r])
-            if x >= 0 and (dist[r] < 0 or x < dist[r]):
-                dist[r] = x
+        bound[0] = geom_rbound[g]  # the bounding sphere's disk, as an upright cylinder's
+        first, count, second = _candidate_rays(
+            cull, inverse, GEOM_CYLINDER, pos, mat, bound, pnt, angle_min, increment,
+            full_circle, nray,
+        )  # fmt: skip
+        wrap = full_circle or not cull
+        for start in (first, second):
+            lo, hi = (start, start + count) if wrap else (max(0, start), min(nray, start + count))
+            for k in range(lo, hi):
+                r = k % nray
+                x = ray_cylinder(pos, mat, size, pnt, dirs[r])
+                if x >= 0 and (dist[r] < 0 or x < dist[r]):
+                    dist[r] = x
+            if wrap:
+                break

@@ -212,7 +212,11 @@ def _sense(
         )
         cast_cylinders(
             pnt,
+            xmat,
             dirs[i],
+            cfg[CFG.ANGLE_MIN],
+            cfg[CFG.ANGLE_INCREMENT],
+            cfg[CFG.FULL_CIRCLE] != 0.0,
             cfg[CFG.RANGE_MAX],
             windows[k],
             geom_xpos,

@@ -26,10 +26,10 @@ from bubblerob_env.arena import ArenaLayout
 from bubblerob_env.batch.common import Observation, ObservationFormat, checked_action
 from bubblerob_env.config import EnvConfig
 from bubblerob_env.core.kernel import OUT
-from bubblerob_env.core.worlds import NO_CONTACT, OBSTACLE_CONTACT, WorldBatch
+from bubblerob_env.core.worlds import WorldBatch
 from bubblerob_env.infos import robot_info
 from bubblerob_env.multi.placement import check_fits, sample_world
-from bubblerob_env.multi.scene import WorldScene
+from bubblerob_env.multi.scene import WorldScene, agent_name, partner_name
 from bubblerob_env.odometry import Odometry, draw_slip
 from bubblerob_env.rendering import EnvViews
 
@@ -92,7 +92,7 @@ class MultiRobotEnv(ParallelEnv[str, Observation, NDArray[np.float32]]):  # type
             config, [scene], self.world.robots, self.world.geom_robot, self.world.window_group
         )
         self.observation_format = ObservationFormat(scene)
-        self.possible_agents = [f"{config.robot.name}_{k}" for k in range(num_robots)]
+        self.possible_agents = [agent_name(config.robot.name, k) for k in range(num_robots)]
         self.agents: list[str] = []
         self._index = {agent: k for k, agent in enumerate(self.possible_agents)}
         self._observation_space = self.observation_format.space
@@ -265,12 +265,7 @@ class MultiRobotEnv(ParallelEnv[str, Observation, NDArray[np.float32]]):  # type
         return observations, rewards, terminations, truncations, infos
 
     def _partner_name(self, k: int) -> str:
-        partner = int(self.batch.partner[k])
-        if partner == OBSTACLE_CONTACT:
-            return "obstacle"
-        if partner == NO_CONTACT:
-            return ""
-        return self.possible_agents[partner]
+        return partner_name(int(self.batch.partner[k]), self.config.robot.name)
 
     def _observation(self, k: int) -> Observation:
         core = self.batch.core

@@ -14,10 +14,10 @@ import math
 
 import numpy as np
 
-from bubblerob_env.arena import ArenaLayout, colour_obstacles, sample_layout
+from bubblerob_env.arena import ArenaLayout, Obstacle, colour_obstacles, sample_layout
 from bubblerob_env.config import EnvConfig
 
-__all__ = ["SCENARIOS", "check_fits", "sample_world"]
+__all__ = ["SCENARIOS", "check_fits", "free_pose", "sample_world"]
 
 SCENARIOS = ("random", "circle")
 """Where a reset puts the robots: uniformly at free poses, or on a circle facing its centre."""
@@ -151,3 +151,31 @@ def sample_world(
     if config.obstacle_colours:
         layout = colour_obstacles(rng, layout)
     return layout, poses
+
+
+def free_pose(
+    rng: np.random.Generator,
+    config: EnvConfig,
+    obstacles: tuple[Obstacle, ...],
+    others: list[tuple[float, float]],
+) -> Pose:
+    """A start pose clear of the walls, ``obstacles`` and the robots at ``others`` (x, y).
+
+    Where none is found in a bounded number of draws, the drawn pose farthest from everything.
+    """
+    limit = config.arena_size / 2 - _keep_out(config)
+    keep_out, spacing = _keep_out(config), _spacing(config)
+    best, best_margin = (0.0, 0.0, 0.0), -math.inf
+    for _ in range(_MAX_TRIES):
+        x, y = (float(v) for v in rng.uniform(-limit, limit, size=2))
+        pose = (x, y, float(rng.uniform(-math.pi, math.pi)))
+        margin = min(
+            [math.hypot(o.x - x, o.y - y) - o.bounding_radius - keep_out for o in obstacles]
+            + [math.hypot(ox - x, oy - y) - spacing for ox, oy in others]
+            + [math.inf]
+        )
+        if margin >= 0:
+            return pose
+        if margin > best_margin:
+            best, best_margin = pose, margin
+    return best

@@ -18,6 +18,7 @@ walls resized, the obstacle slots added, robot 0's sensors and caster chosen as 
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import hashlib
 import os
@@ -30,11 +31,19 @@ from numpy.typing import NDArray
 
 from bubblerob_env import names
 from bubblerob_env.config import EnvConfig
-from bubblerob_env.core.worlds import RobotIds
+from bubblerob_env.core.worlds import NO_CONTACT, OBSTACLE_CONTACT, RobotIds
 from bubblerob_env.scene import Scene
 from bubblerob_env.sensors import CameraSensor, CameraSpec
 
-__all__ = ["WINDOW_GEOM", "WINDOW_GROUP", "RobotCamera", "WorldScene", "robot_prefix"]
+__all__ = [
+    "WINDOW_GEOM",
+    "WINDOW_GROUP",
+    "RobotCamera",
+    "WorldScene",
+    "agent_name",
+    "partner_name",
+    "robot_prefix",
+]
 
 WINDOW_GEOM = "laser_window"
 WINDOW_GROUP = 3
@@ -45,6 +54,18 @@ _WINDOW_RGBA = (0.1, 0.1, 0.12, 1.0)
 def robot_prefix(k: int) -> str:
     """Robot ``k``'s MJCF name prefix in a world: ``""`` for robot 0, else ``robot_<k>/``."""
     return "" if k == 0 else f"robot_{k}/"
+
+
+def agent_name(robot: str, k: int) -> str:
+    """Robot ``k``'s agent name in a world of ``robot`` robots: ``bubblerob_0``, ..."""
+    return f"{robot}_{k}"
+
+
+def partner_name(partner: int, robot: str) -> str:
+    """What a robot touched (:class:`~bubblerob_env.core.worlds.WorldBatch`'s ``partner``)."""
+    if partner == OBSTACLE_CONTACT:
+        return "obstacle"
+    return "" if partner == NO_CONTACT else agent_name(robot, partner)
 
 
 class RobotCamera(CameraSensor):
@@ -107,6 +128,8 @@ class WorldScene:
         self.robots = tuple(_robot_ids(model, robot_prefix(k)) for k in range(num_robots))
         self.window_group = WINDOW_GROUP if num_robots > 1 else None
         self.geom_robot = _geom_robots(model, self.robots)
+        self.dofs = tuple(_dof_range(model, robot.base_body) for robot in self.robots)
+        """Each robot's ``(first, count)`` in ``qvel``."""
         self.cameras: list[CameraSensor | None] = [self.scene.camera]
         spec = self.scene.camera_spec
         for k in range(1, num_robots):
@@ -120,6 +143,21 @@ class WorldScene:
         height = model.body_pos[self.robots[k].base_body][2]
         data.qpos[adr : adr + 3] = (x, y, height)
         data.qpos[adr + 3 : adr + 7] = (np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2))
+        first, count = self.dofs[k]
+        data.qvel[first : first + count] = 0.0
+
+    def spawn(self) -> WorldScene:
+        """A new world of the same config (:meth:`Scene.spawn`: call it before any reset)."""
+        clone = copy.copy(self)
+        clone.scene = self.scene.spawn()
+        clone.cameras = [clone.scene.camera]
+        spec = clone.scene.camera_spec
+        model = clone.scene.model
+        for k in range(1, self.num_robots):
+            clone.cameras.append(
+                None if spec is None else RobotCamera(model, spec, robot_prefix(k))
+            )
+        return clone
 
     def camera_image(self, k: int) -> NDArray[np.uint8] | None:
         """Robot ``k``'s camera frame, or ``None`` without the camera."""
@@ -158,6 +196,12 @@ def _robot_ids(model: mujoco.MjModel, prefix: str) -> RobotIds:
         sensor_shift=shift,
         window=window,
     )
+
+
+def _dof_range(model: mujoco.MjModel, base_body: int) -> tuple[int, int]:
+    """``(first, count)`` of the degrees of freedom of the robot rooted at ``base_body``."""
+    bodies = np.flatnonzero(model.body_rootid == base_body)
+    return int(model.body_dofadr[base_body]), int(model.body_dofnum[bodies].sum())
 
 
 def _geom_robots(model: mujoco.MjModel, robots: tuple[RobotIds, ...]) -> NDArray[np.int32]:
