@@ -38,13 +38,14 @@ TORCH_REPORT := $(VENV)/.torch-install-report.json
 
 .PHONY: help demo test demo-setup test-setup debs-demo debs-test venv venv-demo kernel venv-all torch \
 	warp-kernels warp-kernels-ready \
-	venv-ros2 tf2-msgs test-clients
+	venv-ros2 tf2-msgs test-clients node-client
 
 help:
 	@echo "make demo        set up for the demo (Debian packages, $(VENV) with .[demo]), run it"
 	echo "                 (DEMO_ARGS=... are passed to bubblerob demo)"
 	echo "make test        set up for the tests (+ test packages, torch CPU, $(VENV) with .[all],"
-	echo "                 $(VENV_ROS2) with .[ros2] and tf2_msgs), run pytest (PYTEST_ARGS=...)"
+	echo "                 $(VENV_ROS2) with .[ros2] and tf2_msgs, Foxglove's Node client), run"
+	echo "                 pytest (PYTEST_ARGS=...)"
 	echo "make demo-setup, make test-setup: the set-up alone"
 	echo "make test-clients: Tianshou's and RLlib's tests in $(VENV_CLIENTS) (make test skips them)"
 	echo "A second run skips what is installed, and says so."
@@ -60,7 +61,8 @@ test: test-setup
 	python -m pytest $(PYTEST_ARGS)
 
 demo-setup: debs-demo venv venv-demo kernel
-test-setup: demo-setup debs-test torch venv-all warp-kernels venv-ros2 tf2-msgs warp-kernels-ready
+test-setup: demo-setup debs-test torch venv-all warp-kernels venv-ros2 tf2-msgs node-client \
+	warp-kernels-ready
 
 # The client libraries' tests skip in make test (not installed there): here they run, in their
 # own venv with CPU torch, the project and those libraries.
@@ -227,4 +229,22 @@ tf2-msgs: venv-ros2
 	  echo "setup: building tf2_msgs and vision_msgs into $(VENV_ROS2)"
 	  $(VENV_ROS2)/bin/python -m bubblerob_env.ros.live.ros2_msgs
 	  sha256sum $(TF2_INPUTS) > $(VENV_ROS2)/.stamp-tf2-msgs
+	fi
+
+# Foxglove's own WebSocket client (@foxglove/ws-protocol, on Node.js) for tests/foxglove: npm ci
+# installs exactly what $(NODE_CLIENT)/package-lock.json pins. Node.js itself is Debian's nodejs
+# (with npm) where it is missing. The stamp in node_modules holds the lockfile's sha256.
+NODE_CLIENT := tests/foxglove
+node-client:
+	@if command -v npm >/dev/null; then
+	  echo "setup: Node.js $$(node --version) and npm are installed: skipped"
+	else
+	  $(call apt_install,Foxglove's Node client,nodejs npm)
+	fi
+	if sha256sum --check --status $(NODE_CLIENT)/node_modules/.stamp-npm 2>/dev/null; then
+	  echo "setup: $(NODE_CLIENT)/node_modules has this package-lock.json: skipped"
+	else
+	  echo "setup: npm ci in $(NODE_CLIENT) (@foxglove/ws-protocol, for tests/foxglove)"
+	  npm ci --prefix $(NODE_CLIENT) --no-audit --no-fund
+	  sha256sum $(NODE_CLIENT)/package-lock.json > $(NODE_CLIENT)/node_modules/.stamp-npm
 	fi

@@ -206,7 +206,7 @@ def _node(args: argparse.Namespace) -> int:
     if problem is not None:
         fail("node", problem)
     if args.foxglove:
-        require_extra("foxglove", "node")
+        require_extra("foxglove", "bubblerob node --foxglove")
     kwargs = _env_kwargs(args)
     if kwargs.get("action_type", "wheels") != "wheels":
         fail("node", "the node drives the wheels: action_type must be 'wheels' (cmd_vel is mapped)")

@@ -8,10 +8,12 @@ Everything is on loopback, on a port the OS picks.
 from __future__ import annotations
 
 import base64
+import functools
 import json
 import shutil
 import subprocess
 import threading
+import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -43,6 +45,15 @@ class Served:
     node: Any
     backend: Any
     logs: list[tuple[str, str]] = field(default_factory=list)
+
+    def wait_steps(self, count: int, timeout: float = 10.0) -> None:
+        """Wait until the node has taken ``count`` steps (it starts with a reset and the map)."""
+        deadline = time.monotonic() + timeout
+        while self.node.steps < count:
+            assert time.monotonic() < deadline, (
+                f"the node took {self.node.steps} steps in {timeout} s"
+            )
+            time.sleep(0.01)
 
 
 def make_env(**kwargs: Any) -> gym.Env[Any, Any]:
@@ -108,14 +119,20 @@ def finish_client(proc: subprocess.Popen[str], timeout: float = 30.0) -> Any:
 
 def received(report: Any, topic: str, msgtype: str, since: int = 0) -> list[tuple[int, Any]]:
     """``(log time, decoded message)`` of every ``topic`` message in ``report`` (rosbags' CDR)."""
-    from rosbags.typesys import Stores, get_typestore
-
-    store = get_typestore(Stores.ROS2_JAZZY)
+    store = rosbags_store()
     return [
         (int(m["t"]), store.deserialize_cdr(base64.b64decode(m["data"]), msgtype))
         for m in report["messages"][since:]
         if m["topic"] == topic
     ]
+
+
+@functools.cache
+def rosbags_store() -> Any:
+    """``rosbags``' own type store of ROS 2 Jazzy (not the project's: an independent decoder)."""
+    from rosbags.typesys import Stores, get_typestore
+
+    return get_typestore(Stores.ROS2_JAZZY)
 
 
 def bool_cdr(value: bool) -> str:

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import base64
 import math
-import time
 from typing import Any
 
 import numpy as np
@@ -20,6 +19,7 @@ from conftest import (
     finish_client,
     make_env,
     received,
+    rosbags_store,
     run_client,
     start_client,
 )
@@ -83,9 +83,7 @@ def test_channels_schemas_and_scans_match_the_env(serve: Any) -> None:
 
 def test_late_subscribers_get_the_latched_topics_and_two_clients_both_receive(serve: Any) -> None:
     served = serve(rate_factor=2.0)
-    deadline = time.monotonic() + 10
-    while served.node.steps < 5 and time.monotonic() < deadline:
-        time.sleep(0.02)
+    served.wait_steps(5)
     topics = ["/tf_static", "/map", "/simulationState", "/odom"]
     plan = [{"op": "subscribe", "topics": topics}] + [
         {"op": "waitFor", "topic": topic, "count": 1 if topic != "/odom" else 10}
@@ -114,21 +112,20 @@ def _pose(odom: Any) -> tuple[float, float, float]:
 
 
 def _drive(message: dict[str, Any]) -> list[dict[str, Any]]:
-    """Publish ``message`` on /cmd_vel every 0.1 s for a second (the watchdog is 0.5 sim s)."""
+    """Publish ``message`` on /cmd_vel every 0.05 s for half a second (2 simulated s at rate 4;
+    the watchdog is 0.5 simulated s)."""
     step = {"op": "publish", "topic": "/cmd_vel", **message}
-    return [s for _ in range(10) for s in (step, {"op": "sleep", "ms": 100})]
+    return [s for _ in range(10) for s in (step, {"op": "sleep", "ms": 50})]
 
 
 def test_teleop_twists_move_odom_and_the_reset_service_starts_the_next_episode(
     serve: Any,
 ) -> None:
-    from rosbags.typesys import Stores, get_typestore
-
-    store = get_typestore(Stores.ROS2_JAZZY)
+    store = rosbags_store()
     vector = store.types["geometry_msgs/msg/Vector3"]
     spin = store.types["geometry_msgs/msg/Twist"](linear=vector(0, 0, 0), angular=vector(0, 0, 2))
     spin_cdr = bytes(store.serialize_cdr(spin, "geometry_msgs/msg/Twist"))
-    served = serve(rate_factor=2.0)
+    served = serve(rate_factor=4.0)
     report = run_client(
         served.url,
         [
@@ -143,7 +140,7 @@ def test_teleop_twists_move_odom_and_the_reset_service_starts_the_next_episode(
             *_drive({"base64": base64.b64encode(spin_cdr).decode()}), {"op": "mark"},
             {"op": "call", "service": "/reset_simulation", "encoding": "cdr",
              "base64": base64.b64encode(bytes([0, 1, 0, 0, 0])).decode()},
-            {"op": "sleep", "ms": 300}, {"op": "mark"},
+            {"op": "sleep", "ms": 200}, {"op": "mark"},
         ],
     )  # fmt: skip
     odoms = [  # (index among all messages, pose)

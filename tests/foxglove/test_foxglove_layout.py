@@ -1,0 +1,44 @@
+"""docs/foxglove/bubblerob.json: what ``layout.py`` writes, naming only topics the node has."""
+
+from __future__ import annotations
+
+import json
+
+from layout import LAYOUT_FILE, layout_text
+
+from bubblerob_env.ros.messages.topics import MSGTYPES, Topics
+
+PANEL_TYPES = {
+    "/map": "nav_msgs/msg/OccupancyGrid",
+    "/scan": "sensor_msgs/msg/LaserScan",
+    "/odom": "nav_msgs/msg/Odometry",
+    "/reward": "std_msgs/msg/Float64",
+    "/camera/image_raw": "sensor_msgs/msg/Image",
+    "/camera/camera_info": "sensor_msgs/msg/CameraInfo",
+    "/cmd_vel": "geometry_msgs/msg/Twist",
+}
+
+
+def test_the_layout_file_is_what_layout_py_writes() -> None:
+    assert LAYOUT_FILE.read_text() == layout_text(), "run: python tests/foxglove/layout.py"
+
+
+def test_the_layout_names_the_nodes_topics_with_the_types_its_panels_show() -> None:
+    saved = json.loads(LAYOUT_FILE.read_text())
+    configs = saved["configById"]
+    named = set(configs["3D!bubblerob"]["topics"])
+    named |= {path["value"].split(".")[0] for path in configs["Plot!bubblerob"]["paths"]}
+    image = configs["Image!bubblerob"]["imageMode"]
+    named |= {image["imageTopic"], image["calibrationTopic"], configs["Teleop!bubblerob"]["topic"]}
+    assert named == set(PANEL_TYPES)
+    node_types = {name: MSGTYPES[key] for key, name in Topics().resolved().items()}
+    assert {topic: node_types[topic] for topic in named} == PANEL_TYPES
+    # Every panel is placed in the layout tree, once.
+    placed, stack = [], [saved["layout"]]
+    while stack:
+        node = stack.pop()
+        if isinstance(node, str):
+            placed.append(node)
+        else:
+            stack += [node["first"], node["second"]]
+    assert sorted(placed) == sorted(configs)
