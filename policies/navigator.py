@@ -194,7 +194,7 @@ class PursuitPolicy(_OneByOne):
         mapper: ActionMapper,
         env: BubbleRobNavEnv,
         clearance: tuple[float, ...] = (1.8, 1.5, 1.25, 1.0),
-        lookahead: float = 2.5,
+        lookahead: float = 1.5,
     ) -> None:
         super().__init__()
         self.mapper = mapper
