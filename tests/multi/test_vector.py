@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -63,3 +66,13 @@ def test_an_ended_slot_restarts_at_a_free_pose_while_the_others_drive_on() -> No
         ends["terminated"] += int(terminated.sum())
         ends["truncated"] += int(truncated.sum())
     assert ends["terminated"] > 0 and ends["truncated"] > 0
+
+
+def test_the_benchmark_prints_its_table() -> None:
+    script = Path(__file__).resolve().parents[2] / "bench" / "multi_speed.py"
+    result = subprocess.run(
+        [sys.executable, str(script), "--quick"], capture_output=True, text=True, timeout=300
+    )
+    assert result.returncode == 0, result.stderr
+    for row in ("single batch", "target at 8 robots a world"):
+        assert row in result.stdout
