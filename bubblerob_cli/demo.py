@@ -12,6 +12,7 @@ from typing import Any
 import gymnasium as gym
 
 from bubblerob_cli.args import add_env_arguments
+from bubblerob_cli.foxglove_view import add_foxglove_option, serve
 from bubblerob_cli.policy_checks import check_episode_arguments, check_policies
 from bubblerob_env.wrappers import TopDownView
 from policies.evaluation import (
@@ -45,6 +46,7 @@ def add_demo_subcommand(subparsers: Any) -> None:
     demo.add_argument("--out", type=Path, default=Path("demo_output"), help="output folder")
     demo.add_argument("--no-video", action="store_true", help="skip the video")
     add_env_arguments(demo)
+    add_foxglove_option(demo)
     demo.set_defaults(handler=_run_demo)
 
 
@@ -66,11 +68,12 @@ def run_demo(
     progress: bool = True,
     env_id: str = "BubbleRob-v0",
     env_kwargs: dict[str, Any] | None = None,
+    foxglove: tuple[str, int] | None = None,
 ) -> DemoResult:
     """Drive ``episodes`` episodes of the env (default ``BubbleRob-v0``) with the policy, recording.
 
     The bag (ROS 2 MCAP, Jazzy) and the video of the first episode replace those of an earlier
-    demo in ``out``.
+    demo in ``out``. With ``foxglove`` (host, port) the episodes are also served live to Foxglove.
     """
     from bubblerob_env.ros import RosBagRecorder  # the [ros] extra
 
@@ -79,6 +82,12 @@ def run_demo(
     env: gym.Env[Any, Any] = gym.make(env_id, **(env_kwargs or {}))
     if video:  # frames drawn with NumPy (~1 ms), not MuJoCo's renderer (~50 ms on a CPU)
         env = TopDownView(env, 360, 360)
+    backend = None
+    if foxglove is not None:
+        from bubblerob_env.ros import RosLivePublisher
+
+        backend = serve("demo", foxglove)
+        env = RosLivePublisher(env, backend, metadata={"policy": str(policy_name)})
     policy = load_policy(policy_name, env)
     bag = out / f"bubblerob_demo_{Path(policy_name).stem}"
     command = shlex.join(["bubblerob", *sys.argv[1:]])
@@ -105,6 +114,8 @@ def run_demo(
             bar.update(max(0, limit - episode.length))  # an episode that ended early
             stats.append(episode)
     env.close()
+    if backend is not None:
+        backend.shutdown("done")
     return DemoResult(summarize(str(policy_name), stats), recorder.bag_paths[0], video_path)
 
 
@@ -129,6 +140,7 @@ def _demo_and_report(args: argparse.Namespace) -> int:
         not args.no_video,
         env_id=args.env,
         env_kwargs=args.env_kwargs,
+        foxglove=args.foxglove,
     )
     print(format_table([demo.result]))
     print(f"bag:   {demo.bag}  (bubblerob info {demo.bag}; open in Foxglove or rosbags)")

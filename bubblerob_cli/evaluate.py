@@ -8,6 +8,8 @@ from typing import Any
 
 from bubblerob_cli.args import add_env_arguments
 from bubblerob_cli.demo import add_demo_subcommand
+from bubblerob_cli.errors import fail
+from bubblerob_cli.foxglove_view import add_foxglove_option, evaluate_live
 from bubblerob_cli.policy_checks import check_episode_arguments, check_policies
 from policies.evaluation import (
     DEFAULT_EVAL_SEED,
@@ -76,6 +78,7 @@ def add_subcommands(subparsers: Any) -> None:
         help="spread the episodes over Ray tasks: 'local' starts a cluster for this run, "
         "anything else is ray.init's address ('auto', HOST:PORT); needs the [ray] extra",
     )
+    add_foxglove_option(parser)
     parser.set_defaults(handler=_run_evaluate)
 
     add_demo_subcommand(subparsers)
@@ -103,10 +106,14 @@ def _run_evaluate(args: argparse.Namespace) -> int:
         if args.video_policy is not None and args.video_policy not in args.policy:
             raise SystemExit(f"--video-policy {args.video_policy} is not one of --policy")
     check_policies("evaluate", list(args.policy), args.env, args.env_kwargs)
+    if args.ray is not None and args.foxglove is not None:
+        fail("evaluate", "--foxglove publishes from this process: not with --ray")
     if args.ray is not None:
         from bubblerob_cli.ray.evaluate import evaluate_command
 
         results = evaluate_command(args)
+    elif args.foxglove is not None:
+        results = evaluate_live(args)
     else:
         results = [
             evaluate(name, args.episodes, args.seed, args.env, args.env_kwargs, progress=True)

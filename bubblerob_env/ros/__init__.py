@@ -2,7 +2,8 @@
 
 The env never imports it. The public interface: :class:`RosBagRecorder` (record any loop into
 a ROS 1 or ROS 2 bag), :func:`recorded_env_fns` (one bag per sub-env of a vector env),
-:class:`RosLivePublisher` (publish any loop on a live ROS graph), :func:`replay_bag`
+:class:`RosLivePublisher` (publish any loop on a live ROS graph; :class:`FoxglovePublisher`:
+to Foxglove, no ROS), :func:`replay_bag`
 (re-simulate a bag and compare: a :class:`ReplayReport` of :class:`Divergence` s, or a
 :class:`ReplayError`), :func:`read_summary` (what a bag holds) and :class:`Topics`
 (topic names). The rest is plumbing, in subpackages by job (``docs/ARCHITECTURE.md``):
@@ -12,6 +13,7 @@ a ROS 1 or ROS 2 bag), :func:`recorded_env_fns` (one bag per sub-env of a vector
 
 from __future__ import annotations
 
+from bubblerob_env.ros.live.foxglove_publisher import FoxglovePublisher
 from bubblerob_env.ros.live.wrapper import RosLivePublisher
 from bubblerob_env.ros.messages.topics import Topics
 from bubblerob_env.ros.readback.replay import Divergence, ReplayError, ReplayReport, replay_bag
@@ -21,6 +23,7 @@ from bubblerob_env.ros.recorder import RosBagRecorder, recorded_env_fns
 __all__ = [
     "BagSummary",
     "Divergence",
+    "FoxglovePublisher",
     "ReplayError",
     "ReplayReport",
     "RosBagRecorder",

@@ -10,6 +10,9 @@
 - :mod:`~bubblerob_env.ros.live.wrapper`: ``RosLivePublisher``, publishing any RL loop.
 - :mod:`~bubblerob_env.ros.live.controls`: wheel commands, watchdog, switches, sim control input.
 - :mod:`~bubblerob_env.ros.live.node`: ``SimNode``, the simulation loop of ``bubblerob node``.
+- :mod:`~bubblerob_env.ros.live.foxglove` (``foxglove-sdk``): the third backend, a Foxglove
+  WebSocket server, no ROS; ``foxglove_json`` (JSON from clients), ``foxglove_services``
+  (reset, pause, resume, step), ``foxglove_publisher`` (``FoxglovePublisher``, any RL loop).
 
 Nothing here imports ``rospy``/``rclpy`` until a backend is started.
 """
@@ -24,12 +27,16 @@ from bubblerob_env.ros.live.backend import (
 )
 from bubblerob_env.ros.live.connect import load_backend
 from bubblerob_env.ros.live.controls import ControlState
+from bubblerob_env.ros.live.foxglove import FoxgloveBackend
+from bubblerob_env.ros.live.foxglove_publisher import FoxglovePublisher
 from bubblerob_env.ros.live.node import NodeConfig, SimNode
 from bubblerob_env.ros.live.wrapper import RosLivePublisher
 
 __all__ = [
     "BackendError",
     "ControlState",
+    "FoxgloveBackend",
+    "FoxglovePublisher",
     "LiveBackend",
     "MasterUnreachableError",
     "NodeConfig",

@@ -123,6 +123,7 @@ class FoxgloveBackend(LiveBackend):
         self._subscriptions: dict[str, list[tuple[str, RawCallback]]] = {}
         self._client_channels: dict[tuple[int, int], tuple[str, str, str]] = {}
         self._faults: set[tuple[str, str]] = set()
+        self._subscribers: dict[str, int] = {}
         self._now_ns = 0
         self._broadcast_ns = -1
         self._closed = False
@@ -261,6 +262,15 @@ class FoxgloveBackend(LiveBackend):
             self._faults.add((kind, topic))
         self.log("warn", f"ignoring {kind} on {topic}: {detail} (further ones are not logged)")
 
+    def subscribers(self, topic: str) -> int:
+        """How many client subscriptions ``topic`` has now."""
+        return self._subscribers.get(topic, 0)
+
+    def count_subscriber(self, topic: str, change: int) -> None:
+        """A client subscribed to ``topic`` (+1) or left it (-1)."""
+        with self._lock:
+            self._subscribers[topic] = self._subscribers.get(topic, 0) + change
+
     def resend_latched(self, topic: str) -> None:
         """Send ``topic``'s latest message again if it is latched (a client just subscribed)."""
         latest = self._latched.get(topic)
@@ -319,10 +329,11 @@ class _Listener:
         self.backend = backend
 
     def on_subscribe(self, client: Any, channel: Any) -> None:
+        self.backend.count_subscriber(channel.topic, 1)
         self.backend.resend_latched(channel.topic)
 
     def on_unsubscribe(self, client: Any, channel: Any) -> None:
-        return None
+        self.backend.count_subscriber(channel.topic, -1)
 
     def on_client_advertise(self, client: Any, channel: Any) -> None:
         self.backend.client_advertised(
