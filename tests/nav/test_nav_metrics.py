@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import json
 import math
+import subprocess
+import sys
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -12,7 +15,8 @@ from cli_usage import run
 
 import bubblerob_env  # noqa: F401  (registers the ids)
 from policies import PolicyEnvMismatchError, load_policy
-from policies.navigation_metrics import nav_metrics, spl
+from policies.evaluation import summarize_records
+from policies.navigation_metrics import format_nav_table, nav_metrics, spl
 from policies.protocol import wilson_interval
 
 
@@ -108,3 +112,42 @@ def test_evaluate_on_a_nav_env_prints_the_navigation_metrics(tmp_path, capsys):
     first = episodes["navigator"][0]
     assert first["seed"] == 100_000  # the test split's first seed
     assert {"outcome", "goal", "shortest", "driven", "time", "spl"} <= set(first)
+    # README's measured episodes are these: the same seeds give the same records.
+    root = Path(__file__).resolve().parents[2]
+    measured = json.loads((root / "docs" / "results" / "nav_bubblerob_test.json").read_text())
+    for name in ("navigator", "pursuit"):
+        assert episodes[name] == measured[name][:2]
+
+
+RESULTS = {
+    "BubbleRobNav-v0": "nav_bubblerob_test.json",
+    "PioneerP3DXNav-v0": "nav_pioneer_test.json",
+    "20-30 obstacles": "nav_crowded_test.json",
+}
+
+
+def test_readme_navigation_table_is_its_per_episode_files():
+    root = Path(__file__).resolve().parents[2]
+    readme = (root / "README.md").read_text()
+    section = readme.split("## Go somewhere: navigation\n", 1)[1].split("\n## ", 1)[0]
+    shown = [
+        [cell.strip() for cell in line.strip("|").split("|")]
+        for line in section.splitlines()
+        if line.startswith("| ") and not line.startswith("| env ")
+    ]
+    expected = []
+    for label, name in RESULTS.items():
+        episodes = json.loads((root / "docs" / "results" / name).read_text())
+        rows = [(policy, summarize_records(policy, records).navigation)
+                for policy, records in episodes.items()]  # fmt: skip
+        for line in format_nav_table(rows, markdown=True).splitlines()[2:]:
+            cells = [cell.strip() for cell in line.strip("|").split("|")]
+            expected.append([label, cells[0], *cells[2:]])  # README leaves out "episodes"
+    assert shown == expected
+
+
+def test_nav_figure_script_draws_the_picture(tmp_path):
+    out = tmp_path / "nav.png"
+    script = Path(__file__).resolve().parents[2] / "docs" / "make_nav_figure.py"
+    subprocess.run([sys.executable, str(script), str(out)], check=True, timeout=300)
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and out.stat().st_size > 20_000
