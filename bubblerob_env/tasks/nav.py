@@ -10,9 +10,15 @@ from gymnasium import spaces
 from numpy.typing import NDArray
 
 from bubblerob_env.batch.common import Observation
-from bubblerob_env.checks import check_finite, check_positive
+from bubblerob_env.checks import (
+    MAX_WEIGHT,
+    check_bounded,
+    check_positive,
+    unexpected_kwargs_error,
+)
+from bubblerob_env.config import ARGUMENTS
 from bubblerob_env.env import BubbleRobEnv
-from bubblerob_env.mapping import DEFAULT_RESOLUTION, FREE, check_resolution, has_arena
+from bubblerob_env.mapping import DEFAULT_RESOLUTION, FREE, RESOLUTION_RANGE, has_arena
 from bubblerob_env.tasks.goals import (
     NavProblem,
     cell_of,
@@ -28,6 +34,10 @@ NAV_INFO_KEYS = ("goal", "goal_distance", "shortest_path_length", "distance_driv
 """What every ``info`` of a Nav env adds (with ``is_success``: the goal reached)."""
 _LAYOUT_TRIES = 20  # layouts drawn before giving up on finding a goal (never needed in tests)
 _WANDERING_PARTS = ("reward_forward", "reward_spin", "reward_clearance")
+_TASK_ARGUMENTS = (
+    "goal_radius", "min_goal_distance", "progress_reward_weight", "arrival_reward", "time_cost",
+    "grid_resolution",
+)  # fmt: skip
 
 
 class BubbleRobNavEnv(BubbleRobEnv):
@@ -87,6 +97,10 @@ class BubbleRobNavEnv(BubbleRobEnv):
         **env_kwargs: Any,
     ) -> None:
         """The task's arguments (see Arguments); every other one goes to :class:`BubbleRobEnv`."""
+        unknown = [name for name in env_kwargs if name not in ARGUMENTS]
+        if unknown:
+            valid = [*_TASK_ARGUMENTS, *ARGUMENTS]
+            raise unexpected_kwargs_error("BubbleRobNavEnv.__init__", unknown, valid)
         self.goal_radius = _check_metres("goal_radius", goal_radius)
         self.min_goal_distance = _check_metres("min_goal_distance", min_goal_distance)
         if self.goal_radius >= self.min_goal_distance:
@@ -94,10 +108,17 @@ class BubbleRobNavEnv(BubbleRobEnv):
                 f"goal_radius {goal_radius!r} must be smaller than min_goal_distance "
                 f"{min_goal_distance!r}: a goal must not be reached where the robot starts"
             )
-        self.progress_reward_weight = check_finite("progress_reward_weight", progress_reward_weight)
-        self.arrival_reward = check_finite("arrival_reward", arrival_reward)
-        self.time_cost = check_finite("time_cost", time_cost)
-        self.grid_resolution = check_resolution(grid_resolution)
+        self.progress_reward_weight, self.arrival_reward, self.time_cost = (
+            check_bounded(label, value, -MAX_WEIGHT, MAX_WEIGHT)
+            for label, value in (
+                ("progress_reward_weight", progress_reward_weight),
+                ("arrival_reward", arrival_reward),
+                ("time_cost", time_cost),
+            )
+        )
+        self.grid_resolution = check_bounded(
+            "grid_resolution", grid_resolution, *RESOLUTION_RANGE, " m"
+        )
         super().__init__(**env_kwargs)
         if not has_arena(self):
             raise ValueError(

@@ -93,3 +93,9 @@ def test_a_given_goal_outside_the_arena_or_in_a_wall_is_refused(goal, says):
     env = gym.make("BubbleRobNav-v0", **EMPTY)
     with pytest.raises(ValueError, match=says):
         env.reset(seed=0, options={"goal": goal})
+
+
+def test_an_unknown_kwarg_lists_the_tasks_arguments_too():
+    with pytest.raises(TypeError, match="unexpected keyword argument 'goal_radiu'") as error:
+        gym.make("BubbleRobNav-v0", goal_radiu=0.2)
+    assert "goal_radius, min_goal_distance" in str(error.value)
