@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import re
+from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
@@ -101,3 +103,15 @@ def test_bad_input_is_one_clear_line(kwargs: dict[str, object], message: str) ->
         bubblerob_env.parallel_env(**kwargs)  # type: ignore[arg-type]
     text = str(raised.value)
     assert message in text and "\n" not in text
+
+
+def test_readme_example_runs_and_the_robots_meet() -> None:
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    section = readme.split("## Several robots in one world\n", 1)[1].split("\n## ", 1)[0]
+    (block,) = re.findall(r"```python\n(.*?)```", section, flags=re.DOTALL)
+    namespace: dict[str, Any] = {}
+    exec(block, namespace)
+    infos = namespace["infos"]
+    assert {info.get("collided_with", "") for info in infos.values()} & set(
+        namespace["env"].possible_agents
+    )
