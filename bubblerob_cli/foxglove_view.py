@@ -8,6 +8,8 @@ episodes follow the previous one's in simulated time, so Foxglove's clock never 
 from __future__ import annotations
 
 import argparse
+import logging
+import sys
 from typing import TYPE_CHECKING, Any
 
 from bubblerob_cli.errors import fail
@@ -17,7 +19,14 @@ if TYPE_CHECKING:
     from bubblerob_env.ros.live.foxglove import FoxgloveBackend
     from policies.evaluation import EvalResult
 
-__all__ = ["DEFAULT_ADDRESS", "add_foxglove_option", "evaluate_live", "parse_address", "serve"]
+__all__ = [
+    "DEFAULT_ADDRESS",
+    "add_foxglove_option",
+    "evaluate_live",
+    "parse_address",
+    "quiet_sdk_log",
+    "serve",
+]
 
 DEFAULT_ADDRESS = "127.0.0.1:8765"
 
@@ -46,12 +55,45 @@ def add_foxglove_option(parser: argparse.ArgumentParser) -> None:
     )
 
 
+class _OncePerKind(logging.Handler):
+    """Writes the first record of each kind (logger and level) as one line; drops the rest."""
+
+    def __init__(self, command: str) -> None:
+        super().__init__(logging.WARNING)
+        self.command = command
+        self.seen: set[tuple[str, int]] = set()
+
+    def emit(self, record: logging.LogRecord) -> None:
+        kind = (record.name, record.levelno)
+        if kind in self.seen:
+            return
+        self.seen.add(kind)
+        print(
+            f"bubblerob {self.command}: foxglove-sdk: {record.getMessage()} (further ones of this "
+            "kind are not logged)",
+            file=sys.stderr,
+            flush=True,
+        )
+
+
+def quiet_sdk_log(command: str) -> None:
+    """Write foxglove-sdk's own warnings as one line per kind on stderr, not one per client.
+
+    They are about clients: one gone mid-message, a failed handshake (a wrong subprotocol).
+    """
+    sdk = logging.getLogger("foxglove")
+    if not any(isinstance(handler, _OncePerKind) for handler in sdk.handlers):
+        sdk.addHandler(_OncePerKind(command))
+        sdk.propagate = False
+
+
 def serve(command: str, address: tuple[str, int]) -> FoxgloveBackend:
     """A started Foxglove server, announced in one line; one line and exit 2 if it cannot start."""
     require_extra("foxglove", f"bubblerob {command} --foxglove")
     from bubblerob_env.ros.live.backend import BackendError
     from bubblerob_env.ros.live.foxglove import SUBPROTOCOL, FoxgloveBackend
 
+    quiet_sdk_log(command)
     try:
         backend = FoxgloveBackend(*address)
     except BackendError as error:

@@ -277,8 +277,10 @@ def _start_backend(args: argparse.Namespace, env: Any) -> LiveBackend:
 
     try:
         if args.foxglove:
+            from bubblerob_cli.foxglove_view import quiet_sdk_log
             from bubblerob_env.ros.live.foxglove import FoxgloveBackend
 
+            quiet_sdk_log("node")
             return FoxgloveBackend(args.host, args.port, logger=_log_line)
         return load_backend(args.ros, namespace=args.namespace, master_timeout=args.master_timeout)
     except BackendError as error:

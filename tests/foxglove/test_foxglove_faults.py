@@ -122,7 +122,8 @@ def test_the_command_says_where_and_how_to_connect_and_serves_its_services(tmp_p
         )
         assert match, ready
         url = match.group(1)
-        assert run_client(url, [], subprotocol="foxglove.websocket.v1") == {"httpStatus": 400}
+        for _ in range(2):  # foxglove-sdk logs each; the command, one line per kind
+            assert run_client(url, [], "foxglove.websocket.v1") == {"httpStatus": 400}
         report = run_client(
             url,
             [
@@ -147,6 +148,7 @@ def test_the_command_says_where_and_how_to_connect_and_serves_its_services(tmp_p
         if proc.poll() is None:
             proc.kill()
     assert proc.returncode == 0, err
+    assert err.count("handshake failed") == 1, err
     assert re.fullmatch(
         r"bubblerob node: \d+ steps in [\d.]+ s \([\d.]+ steps/s\), \d+ messages published\n", out
     )
