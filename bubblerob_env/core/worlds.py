@@ -162,6 +162,35 @@ def _world_physics(
 
 
 @njit(cache=True, nogil=True)
+def _cast_analytic(
+    row: NDArray[np.uint64],
+    pnt: NDArray[np.float64],
+    xmat: NDArray[np.float64],
+    dirs: NDArray[np.float64],
+    cfg: NDArray[np.float64],
+    prisms: NDArray[np.int32],
+    windows: NDArray[np.int32],
+    geom_type: NDArray[np.int32],
+    dist: NDArray[np.float64],
+) -> None:  # pragma: no cover - numba
+    """The static prisms as the single env casts them, then the other robots' windows."""
+    ngeom = geom_type.shape[0]
+    geom_xpos = _f64(row[PTR.GEOM_XPOS], 3 * ngeom).reshape((ngeom, 3))
+    geom_xmat = _f64(row[PTR.GEOM_XMAT], 9 * ngeom).reshape((ngeom, 9))
+    geom_size = _f64(row[PTR.GEOM_SIZE], 3 * ngeom).reshape((ngeom, 3))
+    geom_rbound = _f64(row[PTR.GEOM_RBOUND], ngeom)
+    fan = (cfg[CFG.ANGLE_MIN], cfg[CFG.ANGLE_INCREMENT], cfg[CFG.FULL_CIRCLE] != 0.0)
+    cast_prisms(
+        pnt, xmat, dirs, fan[0], fan[1], fan[2], cfg[CFG.RANGE_MAX], prisms, geom_type,
+        geom_xpos, geom_xmat, geom_size, geom_rbound, dist,
+    )  # fmt: skip
+    cast_cylinders(
+        pnt, xmat, dirs, fan[0], fan[1], fan[2], cfg[CFG.RANGE_MAX], windows,
+        geom_xpos, geom_xmat, geom_size, geom_rbound, dist,
+    )  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
 def _sense(
     i: int,
     k: int,
@@ -174,7 +203,7 @@ def _sense(
 ) -> float:  # pragma: no cover - numba
     """Robot ``i`` (robot ``k`` of its world) senses; returns the clearance cost's reading."""
     icfg, cfg = settings
-    is_obstacle, geom_type, local_dirs, _ = tables
+    _, geom_type, local_dirs, _ = tables
     _, bodies, windows, geomgroup = world_tables
     cast_geoms, noise, dirs, dist, geomid = state
     laser, proximity, velocity, out = outputs
@@ -185,45 +214,12 @@ def _sense(
     pnt = _f64(row[PTR.SITE_XPOS], 3)
     xmat = _f64(row[PTR.SITE_XMAT], 9)
     world_rays(local_dirs, xmat, dirs[i])
-    ngeom = is_obstacle.shape[0]
     if icfg[ICFG.ANALYTIC]:
         count = 0
         while count < cast_geoms.shape[1] and cast_geoms[i, count] >= 0:
             count += 1
-        geom_xpos = _f64(row[PTR.GEOM_XPOS], 3 * ngeom).reshape((ngeom, 3))
-        geom_xmat = _f64(row[PTR.GEOM_XMAT], 9 * ngeom).reshape((ngeom, 9))
-        geom_size = _f64(row[PTR.GEOM_SIZE], 3 * ngeom).reshape((ngeom, 3))
-        geom_rbound = _f64(row[PTR.GEOM_RBOUND], ngeom)
-        cast_prisms(
-            pnt,
-            xmat,
-            dirs[i],
-            cfg[CFG.ANGLE_MIN],
-            cfg[CFG.ANGLE_INCREMENT],
-            cfg[CFG.FULL_CIRCLE] != 0.0,
-            cfg[CFG.RANGE_MAX],
-            cast_geoms[i, :count],
-            geom_type,
-            geom_xpos,
-            geom_xmat,
-            geom_size,
-            geom_rbound,
-            dist[i],
-        )
-        cast_cylinders(
-            pnt,
-            xmat,
-            dirs[i],
-            cfg[CFG.ANGLE_MIN],
-            cfg[CFG.ANGLE_INCREMENT],
-            cfg[CFG.FULL_CIRCLE] != 0.0,
-            cfg[CFG.RANGE_MAX],
-            windows[k],
-            geom_xpos,
-            geom_xmat,
-            geom_size,
-            geom_rbound,
-            dist[i],
+        _cast_analytic(
+            row, pnt, xmat, dirs[i], cfg, cast_geoms[i, :count], windows[k], geom_type, dist[i]
         )
     else:
         MJ_MULTIRAY(

@@ -197,16 +197,8 @@ class WorldsVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
         core.actions[:] = checked_actions(actions, self.num_envs)
         self._draw_noise(np.arange(self.num_envs, dtype=np.int64))
         self._run_kernel()
+        self._advance_odometry()
         out = core.out
-        slip = None
-        if self._odometry.noise:
-            slip = np.array(
-                [
-                    draw_slip(self._rngs[i // self.num_robots], self._odometry.noise)
-                    for i in range(self.num_envs)
-                ]
-            )
-        self._odometry.advance(np.arange(self.num_envs, dtype=np.int64), out, slip)
         collision = out[:, _COLLISION] != 0.0
         self._collided |= collision
         self._clipped += out[:, _CLIPPED] != 0.0
@@ -221,29 +213,10 @@ class WorldsVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
         truncated = self._elapsed >= self.max_episode_steps
         truncated[list(diverged)] = True
         obs = self._observations()
-        ended = np.flatnonzero(terminated | truncated).tolist()
         names, touched = self._partners(collision)
-        finals = {}
-        for i in ended:
-            final_info = robot_step_info(
-                core,
-                i,
-                self._trigger,
-                bool(self._collided[i]),
-                int(self._clipped[i]),
-                diverged,
-                self._odometry.poses,
-            )
-            if touched[i]:
-                final_info["collided_with"] = names[i]
-            finals[i] = (robot_obs(obs, i), final_info)
-        resets = {}
-        for w in diverged_worlds:
-            self._reset_world(w)
-        for i in ended:
-            if i // self.num_robots not in diverged_worlds:
-                self._respawn(i)
-            resets[i] = robot_info(core, i, self._trigger, 0, self._odometry.poses)
+        done = terminated | truncated
+        finals = self._finals(obs, np.flatnonzero(done).tolist(), names, diverged)
+        resets = self._restart(np.flatnonzero(done).tolist(), diverged_worlds)
         info = batched_step_info(
             core,
             self._trigger,
@@ -253,11 +226,51 @@ class WorldsVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
             resets,
             self._odometry.poses,
         )
-        info["collided_with"], info["_collided_with"] = self._partners(collision)
+        # Restarted slots' info is their new episode's (SameStep): no collided_with there.
+        info["collided_with"], info["_collided_with"] = names, touched & ~done
         if finals:
             add_finals(info, finals, self.num_envs)
             obs = self._observations()
         return obs, rewards, terminated, truncated, info
+
+    def _advance_odometry(self) -> None:
+        noise = self._odometry.noise
+        slip = None
+        if noise:
+            rngs = [self._rngs[i // self.num_robots] for i in range(self.num_envs)]
+            slip = np.array([draw_slip(rng, noise) for rng in rngs])
+        self._odometry.advance(np.arange(self.num_envs, dtype=np.int64), self.batch.core.out, slip)
+
+    def _finals(
+        self, obs: BatchObs, ended: list[int], names: NDArray[Any], diverged: dict[int, str]
+    ) -> dict[int, tuple[Any, dict[str, Any]]]:
+        """The last observation and ``info`` of each slot in ``ended``."""
+        finals = {}
+        for i in ended:
+            final_info = robot_step_info(
+                self.batch.core,
+                i,
+                self._trigger,
+                bool(self._collided[i]),
+                int(self._clipped[i]),
+                diverged,
+                self._odometry.poses,
+            )
+            if names[i]:
+                final_info["collided_with"] = names[i]
+            finals[i] = (robot_obs(obs, i), final_info)
+        return finals
+
+    def _restart(self, ended: list[int], diverged_worlds: list[int]) -> dict[int, dict[str, Any]]:
+        """Draw diverged worlds anew and respawn the other ended slots; their reset ``info``."""
+        for w in diverged_worlds:
+            self._reset_world(w)
+        resets = {}
+        for i in ended:
+            if i // self.num_robots not in diverged_worlds:
+                self._respawn(i)
+            resets[i] = robot_info(self.batch.core, i, self._trigger, 0, self._odometry.poses)
+        return resets
 
     def _partners(self, collision: NDArray[np.bool_]) -> tuple[NDArray[Any], NDArray[np.bool_]]:
         """``info["collided_with"]``: the robot touched (its name in the world) or "obstacle"."""
