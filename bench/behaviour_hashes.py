@@ -133,7 +133,8 @@ def ray_run(work: Path) -> str | None:
 
 def _without_times(value: Any) -> Any:
     if isinstance(value, dict):
-        return {k: _without_times(v) for k, v in value.items() if "time" not in k and "fps" not in k}
+        timed = ("time", "fps")
+        return {k: _without_times(v) for k, v in value.items() if not any(t in k for t in timed)}
     if isinstance(value, list):
         return [_without_times(v) for v in value]
     return value

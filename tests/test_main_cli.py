@@ -17,7 +17,9 @@ SUBCOMMANDS = ("demo", "evaluate", "train", "record", "info", "replay", "node")
 
 
 def _bubblerob(*args: str, code: str = "", timeout: int = 120) -> subprocess.CompletedProcess[str]:
-    script = f"import sys\n{code}\nfrom bubblerob_cli.main import main\nsys.exit(main(sys.argv[1:]))"
+    script = (
+        f"import sys\n{code}\nfrom bubblerob_cli.main import main\nsys.exit(main(sys.argv[1:]))"
+    )
     return subprocess.run(
         [sys.executable, "-c", script, *args],
         capture_output=True,

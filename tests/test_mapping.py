@@ -99,8 +99,8 @@ def test_map_of_a_recorded_laser_episode(tmp_path, capsys):
 def test_map_of_a_bag_without_map_re_simulates_the_episode(tmp_path):
     pytest.importorskip("rosbags")
     from bubblerob_env.ros import RosBagRecorder
-    from bubblerob_env.ros.messages.topics import Topics
     from bubblerob_env.ros.map_bag import map_bag
+    from bubblerob_env.ros.messages.topics import Topics
 
     for name, topics in (("with", Topics()), ("without", Topics(map=None))):
         env = gym.make("BubbleRob-v0", max_episode_steps=20)
@@ -122,8 +122,8 @@ def test_map_re_simulates_with_the_env_the_user_names(tmp_path, capsys):
     # arena gives that one's; an env that cannot be made is one line, exit 2.
     pytest.importorskip("rosbags")
     from bubblerob_env.ros import RosBagRecorder
-    from bubblerob_env.ros.messages.topics import Topics
     from bubblerob_env.ros.map_bag import map_bag
+    from bubblerob_env.ros.messages.topics import Topics
 
     env = gym.make("BubbleRob-v0", arena_size=3.0, max_episode_steps=5)
     with RosBagRecorder(env, tmp_path / "bag", topics=Topics(map=None)) as recorder:
