@@ -129,7 +129,7 @@ def test_camera_sees_the_other_robot_where_geometry_says() -> None:
 
 def test_driving_into_another_robot_terminates_both_naming_each_other() -> None:
     env = bubblerob_env.parallel_env(num_robots=3, num_obstacles=(0, 0))
-    poses = [(0.0, 0.0, 0.0), (0.4, 0.0, math.pi / 2), (-1.0, -1.0, 0.0)]
+    poses = [(0.0, 0.0, 0.0), (0.4, 0.0, math.pi / 2), (0.5, -0.6, math.pi / 2)]
     env.reset(seed=0, options={"start_poses": poses})
     drive = {"bubblerob_0": np.ones(2, np.float32), "bubblerob_1": np.zeros(2, np.float32)}
     for _ in range(100):
@@ -151,3 +151,20 @@ def test_driving_into_another_robot_terminates_both_naming_each_other() -> None:
     for _ in range(5):
         env.step({"bubblerob_2": np.zeros(2, np.float32)})
     assert np.allclose(env.world.scene.data.qpos[adr : adr + 2], still, atol=1e-4)
+    # The third robot drives into the stopped one: it terminates, naming it.
+    for _ in range(60):
+        _, _, terminated, _, infos = env.step({"bubblerob_2": np.ones(2, np.float32)})
+        if terminated["bubblerob_2"]:
+            break
+    assert infos["bubblerob_2"]["collided_with"] == "bubblerob_1"
+    assert not env.agents
+
+
+def test_nose_sensor_reads_the_other_robots_chassis() -> None:
+    """BubbleRob's rangefinder is at the height of the chassis sphere's centre (0.09 m)."""
+    env = bubblerob_env.parallel_env(num_robots=2, num_obstacles=(0, 0))
+    obs, _ = env.reset(seed=0, options={"start_poses": [(0, 0, 0), (0.35, 0, math.pi)]})
+    # B faces A: its chassis sphere (r 0.075) is centred 0.015 m behind B's base_link, so at
+    # x = 0.365; A's rangefinder looks along +x from x = 0.06.
+    expected = 0.35 + 0.015 - 0.075 - 0.06
+    assert abs(float(obs["bubblerob_0"]["proximity"][0]) - expected) < 1e-6
