@@ -18,7 +18,7 @@ every per-robot array.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import mujoco
 import numpy as np
@@ -52,6 +52,7 @@ NO_CONTACT = -1
 OBSTACLE_CONTACT = -2
 """``partner``: the robot touched a wall or an obstacle (else: the other robot's index)."""
 
+_BUFFERS = ("actions", "noise", "cast_geoms", "laser", "proximity", "velocity", "out")
 WorldTables = tuple[NDArray[np.int32], NDArray[np.int32], NDArray[np.int32], NDArray[np.uint8]]
 """Per geom its robot (-1: the world's); per robot its base body and the other robots' laser
 windows (-1 padded); the laser's geom group mask for ``mj_multiRay``."""
@@ -358,6 +359,19 @@ class WorldBatch:
             (PTR.GEOM_RBOUND, model.geom_rbound),
         ):
             row[column] = array.ctypes.data
+
+    def buffers(self) -> dict[str, NDArray[Any]]:
+        """Copies of the state a step reads and writes besides MuJoCo's (for pickling)."""
+        arrays = {name: getattr(self.core, name) for name in _BUFFERS}
+        arrays.update(alive=self.alive, partner=self.partner)
+        return {name: array.copy() for name, array in arrays.items()}
+
+    def restore(self, buffers: dict[str, NDArray[Any]]) -> None:
+        """Write :meth:`buffers` of another batch of the same worlds into this one."""
+        for name in _BUFFERS:
+            getattr(self.core, name)[...] = buffers[name]
+        self.alive[...] = buffers["alive"]
+        self.partner[...] = buffers["partner"]
 
     def start(self, rows: NDArray[np.int64], model: mujoco.MjModel) -> None:
         """``rows`` just reset (in worlds of ``model``): readings, no step's numbers; alive."""

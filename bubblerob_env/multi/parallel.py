@@ -286,6 +286,22 @@ class MultiRobotEnv(ParallelEnv[str, Observation, NDArray[np.float32]]):  # type
             self._odometry.poses,
         )
 
+    def __getstate__(self) -> dict[str, Any]:
+        # The kernel's address table points into this process's MuJoCo data: a copy (pickle,
+        # deepcopy) builds its own batch on its own data and takes over the buffers.
+        state = dict(self.__dict__)
+        state["batch"] = state["batch"].buffers()
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        buffers = state.pop("batch")
+        self.__dict__.update(state)
+        world = self.world
+        self.batch = WorldBatch(
+            self.config, [world.scene], world.robots, world.geom_robot, world.window_group
+        )
+        self.batch.restore(buffers)
+
     def render(self) -> NDArray[np.uint8] | None:
         """``rgb_array``: the overhead view of the world (robot 0's scan drawn)."""
         if self.render_mode is None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import pickle
 import re
 from pathlib import Path
 from typing import Any
@@ -115,3 +116,17 @@ def test_readme_example_runs_and_the_robots_meet() -> None:
     assert {info.get("collided_with", "") for info in infos.values()} & set(
         namespace["env"].possible_agents
     )
+
+
+def test_a_copy_mid_episode_steps_as_the_original() -> None:
+    """The kernel reads MuJoCo through addresses: a copy must bind its own data."""
+    env = bubblerob_env.parallel_env(num_robots=3, laser_noise_std=0.01, max_episode_steps=50)
+    env.reset(seed=4)
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        env.step({agent: rng.uniform(-1, 1, 2).astype(np.float32) for agent in env.agents})
+    twin = pickle.loads(pickle.dumps(env))
+    while env.agents:
+        actions = {agent: rng.uniform(-1, 1, 2).astype(np.float32) for agent in env.agents}
+        assert all(map(_same, env.step(actions), twin.step(actions)))
+    assert not twin.agents
