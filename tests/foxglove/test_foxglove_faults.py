@@ -66,13 +66,17 @@ def test_floods_and_malformed_messages_neither_stop_nor_slow_the_node(serve: Any
 
     served.wait_steps(1)
     steps, began = served.node.steps, time.monotonic()
+    time.sleep(1.0)
+    quiet = (served.node.steps - steps) / (time.monotonic() - began)
+    steps, began = served.node.steps, time.monotonic()
     watcher = start_client(served.url, watch)
     clients = [start_client(served.url, flood), start_client(served.url, vanishing)]
     reports = [finish_client(client) for client in clients[:1]]
     clients[1].wait(10)
     report = finish_client(watcher)
     rate = (served.node.steps - steps) / (time.monotonic() - began)
-    assert rate > 15, f"{rate:.1f} steps/s where the node runs 20"  # its rate, flood or not
+    # Its rate, flood or not (20 steps/s; relative, for a loaded machine).
+    assert rate > 0.75 * quiet, f"{rate:.1f} steps/s under the flood, {quiet:.1f} before"
     clocks = received(report, "/clock", "rosgraph_msgs/msg/Clock")
     assert len(clocks) >= 40
     assert not reports[0].get("error")
