@@ -16,8 +16,11 @@ from bubblerob_env.multi.scene import WINDOW_GROUP  # noqa: E402
 from bubblerob_env.robots import ROBOTS  # noqa: E402
 
 
-def _multiray(env: object, k: int) -> np.ndarray:
-    """Robot ``k``'s scan by mj_multiRay: walls, obstacles and the windows, itself excluded."""
+def _multiray(env: object, k: int, hits: list[int] | None = None) -> np.ndarray:
+    """Robot ``k``'s scan by mj_multiRay: walls, obstacles and the windows, itself excluded.
+
+    ``hits``: gets the ids of the geoms hit appended.
+    """
     world = env.world  # type: ignore[attr-defined]
     model, data = world.scene.model, world.scene.data
     spec = world.scene.laser_spec
@@ -34,6 +37,8 @@ def _multiray(env: object, k: int) -> np.ndarray:
         world.robots[k].base_body, geomid, dist, None, len(angles), spec.range_max,
     )  # fmt: skip
     hit = (dist >= 0) & (dist < spec.range_max)
+    if hits is not None:
+        hits.extend(geomid[hit].tolist())
     return np.where(hit, dist, spec.range_max).astype(np.float32)
 
 
@@ -62,20 +67,26 @@ def test_laser_reads_the_other_robots_window_at_its_geometric_range(robot: str) 
     assert np.array_equal(obs[f"{robot}_1"]["laser"], _multiray(env, 1))
 
 
-def test_analytic_scan_equals_mj_multiray_while_robots_drive_and_tilt() -> None:
-    env = bubblerob_env.parallel_env(num_robots=4, laser_noise_std=0.0)
+@pytest.mark.parametrize("robot", ["bubblerob", "pioneer_p3dx"])
+def test_analytic_scan_equals_mj_multiray_while_robots_drive_and_tilt(robot: str) -> None:
+    """Full circle (BubbleRob) and a 180-degree fan (Pioneer), robots close and far."""
+    env = bubblerob_env.parallel_env(num_robots=4, robot=robot, arena_size=None)
     env.reset(seed=3)
+    assert env.world.scene.laser_spec.caster == "analytic"
     rng = np.random.default_rng(1)
     compared = 0
+    hits: list[int] = []
     for _ in range(40):
-        actions = {agent: rng.uniform(-1, 1, 2).astype(np.float32) for agent in env.agents}
+        actions = {agent: rng.uniform(-0.5, 1, 2).astype(np.float32) for agent in env.agents}
         obs, *_ = env.step(actions)
         for agent, agent_obs in obs.items():
             k = env.possible_agents.index(agent)
-            assert np.array_equal(agent_obs["laser"], _multiray(env, k))
+            assert np.array_equal(agent_obs["laser"], _multiray(env, k, hits))
             compared += 1
         if not env.agents:
             env.reset()
+    windows = {robot.window for robot in env.world.robots}
+    assert sum(hit in windows for hit in hits) > 100  # the windows were seen, often
     assert compared >= 40
 
 
