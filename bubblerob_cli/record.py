@@ -48,7 +48,7 @@ def _add_record(subparsers: Any) -> None:
     )
     add_env_arguments(record)
     record.add_argument("--episodes", type=int, default=1, help="episodes to record (default 1)")
-    record.add_argument("--seed", type=int, default=0, help="seed of the first episode")
+    record.add_argument("--seed", type=int, default=0, help="seed of the first episode (default 0)")
     record.add_argument("--format", choices=FORMATS, default="mcap", help="bag format")
     all_compressions = sorted({c for options in COMPRESSIONS.values() for c in options})
     record.add_argument(
@@ -64,7 +64,12 @@ def _add_record(subparsers: Any) -> None:
         action="store_true",
         help="with the camera: no /detections (the recogniser does not run; faster)",
     )
-    record.add_argument("--max-steps", type=int, default=None, help="step limit per episode")
+    record.add_argument(
+        "--max-steps",
+        type=int,
+        default=None,
+        help="step limit per episode (default: the env's time limit)",
+    )
     record.add_argument("--topics", choices=sorted(PRESETS), default="default", help="names")
     record.add_argument("--namespace", default="", help="prefix for the robot's topics")
     record.add_argument("--per-episode", action="store_true", help="one bag per episode")

@@ -361,3 +361,25 @@ def test_readme_learning_curve_command_writes_the_picture(tmp_path):
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert "python docs/plot_training.py" in README
     assert (ROOT / "docs" / "images" / "ppo_learning_curve.png").is_file()
+
+
+def test_record_help_shows_each_options_default():
+    # README: "`bubblerob COMMAND --help` shows every option with its default".
+    pytest.importorskip("rosbags")
+    import argparse
+
+    from bubblerob_cli.main import build_parser
+
+    parser = build_parser()
+    (commands,) = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    record = commands.choices["record"]
+    hidden = []
+    for action in record._actions:
+        help_text = record.formatter_class("record")._get_help_string(action) or ""
+        takes_value = action.nargs != 0 and action.option_strings and action.help
+        if takes_value and action.default not in (None, argparse.SUPPRESS):
+            hidden += [] if "default" in help_text else [action.option_strings[0]]
+    assert hidden == []
+    shown = " ".join(record.format_help().split())
+    assert "seed of the first episode (default 0)" in shown
+    assert "step limit per episode (default: the env's time limit)" in shown
