@@ -12,6 +12,8 @@ from bubblerob_env.ros.messages.topics import MSGTYPES
 
 __all__ = ["add_subcommands"]
 
+_HEADLINE = ("precision", "recall", "class_accuracy")
+
 
 def add_subcommands(subparsers: Any) -> None:
     """Add ``detect`` to the ``bubblerob`` command."""
@@ -36,4 +38,8 @@ def _detect(args: argparse.Namespace) -> int:
         report("detect", str(error))
         return 2
     print(json.dumps(result.to_dict(), sort_keys=True) if args.json else result)
+    if result.headline_missing:
+        missing = ", ".join(name for name in result.missing() if name in _HEADLINE)
+        report("detect", f"no score: {missing} n/a over nothing (reasons above)")
+        return 1
     return 0

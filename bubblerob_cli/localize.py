@@ -43,7 +43,7 @@ def add_subcommands(subparsers: Any) -> None:
 
 def _text(summary: dict[str, Any]) -> str:
     def metres(v: float | None, unit: str, scale: float) -> str:
-        return "-" if v is None else f"{v * scale:.1f} {unit}"
+        return "n/a (never converged)" if v is None else f"{v * scale:.1f} {unit}"
 
     lines = [f"{summary['episodes']} episode(s), {summary['mode']}; truth: {summary['truth']}"]
     lines.append("episode  seed  converged after  position error  yaw error  odometry off at end")
@@ -97,4 +97,7 @@ def _run(args: argparse.Namespace) -> int:
     else:
         print(_text(summary))
         print(f"wrote {out} (green: truth, red: odometry, blue: estimate)")
+    if summary["position_error_mean_m"] is None:
+        report("localize", "no error after convergence: no episode converged (n/a)")
+        return 1
     return 0

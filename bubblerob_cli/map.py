@@ -30,15 +30,15 @@ def add_subcommands(subparsers: Any) -> None:
     parser.add_argument(
         "--env",
         metavar="ID",
-        help="where the ground truth is re-simulated (the bag has no /map at --resolution): "
-        "make this env id instead of the one the episode's metadata names",
+        help="re-simulate the ground truth in this env id instead of the one the episode's "
+        "metadata names (instead of the bag's /map too)",
     )
     parser.add_argument(
         "--env-kwargs",
         type=env_kwargs_json,
         metavar="JSON",
-        help="with the re-simulation: these gym.make keyword arguments instead of the "
-        "metadata's, e.g. '{\"arena_size\": 3.0}'",
+        help="re-simulate the ground truth with these gym.make keyword arguments instead of "
+        "the metadata's (instead of the bag's /map too), e.g. '{\"arena_size\": 3.0}'",
     )
     parser.set_defaults(handler=_run)
 
@@ -66,7 +66,11 @@ def _run(args: argparse.Namespace) -> int:
         return 1
     print(f"ground truth: {result.truth_source}")
     print(f"scans: {result.scans}")
-    print(f"IoU of occupied cells (observed cells): {result.iou:.3f}")
-    print(f"IoU of occupied cells (all cells): {result.iou_all:.3f}")
+    for label, iou in (("observed cells", result.iou), ("all cells", result.iou_all)):
+        shown = f"n/a ({result.missing})" if iou is None else f"{iou:.3f}"
+        print(f"IoU of occupied cells ({label}): {shown}")
     print(f"wrote {out} (mapped left, ground truth right)")
+    if result.missing:
+        report("map", f"no IoU: {result.missing}")
+        return 1
     return 0

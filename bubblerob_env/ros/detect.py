@@ -12,6 +12,10 @@ Scoring (:class:`~bubblerob_env.vision.scoring.Score`): detections and true obje
 overlap, objects of fewer than 50 pixels not counted, bearing errors over the paired obstacles.
 Images that the re-simulation renders differently (another OpenGL build) are still scored (the
 pose is exact) and counted in ``images_rendered_differently``.
+
+A figure over nothing (precision with no detection, recall with no object of ``min_pixels``,
+class accuracy with nothing paired, errors with no obstacle paired) is ``None`` and its reason is
+in :meth:`DetectReport.missing`: never the 1.000 or 0.00 of an empty ratio.
 """
 
 from __future__ import annotations
@@ -26,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
-from bubblerob_env.ros.messages.topics import Topics
+from bubblerob_env.ros.bag_topics import bag_topic_names
 from bubblerob_env.ros.readback.episode_env import make_episode_env
 from bubblerob_env.ros.readback.layout import bag_root
 from bubblerob_env.ros.readback.summary import find_episodes, open_reader
@@ -50,27 +54,79 @@ class DetectReport:
     score: Score
     images_rendered_differently: int = 0
 
+    def missing(self) -> dict[str, str]:
+        """Each figure that has nothing to be computed over, and why (empty: none)."""
+        score, small = self.score, f"of >= {self.score.min_pixels} pixels"
+        whys = {
+            "precision": (score.true_positives + score.false_positives, f"no detection {small}"),
+            "recall": (score.true_positives + score.missed, f"no object {small} in any image"),
+            "class_accuracy": (score.true_positives, "no detection paired with an object"),
+            "bearing_error": (len(score.bearing_errors), "no obstacle paired"),
+            "distance_error": (len(score.distance_errors), "no obstacle paired at a distance"),
+        }
+        return {name: why for name, (count, why) in whys.items() if count == 0}
+
+    @property
+    def headline_missing(self) -> bool:
+        """Whether precision, recall or class accuracy is missing: no score to report."""
+        return bool({"precision", "recall", "class_accuracy"} & set(self.missing()))
+
     def to_dict(self) -> dict[str, Any]:
-        """One JSON-ready object: the score's summary, the bag and its episodes."""
+        """One JSON-ready object: the score's summary, the bag and its episodes.
+
+        A figure over nothing is ``None``, and ``"n/a"`` says why.
+        """
+        summary = self.score.summary()
+        missing = self.missing()
+        for name, keys in _FIGURE_KEYS.items():
+            if name in missing:
+                summary.update(dict.fromkeys(keys))
         return {
             "bag": str(self.bag),
             "episodes": self.episodes,
-            **self.score.summary(),
+            **summary,
             "min_pixels": self.score.min_pixels,
             "images_rendered_differently": self.images_rendered_differently,
+            "n/a": missing,
         }
 
     def __str__(self) -> str:
-        s = self.score.summary()
+        s, missing = self.score.summary(), self.missing()
+
+        def shown(name: str, text: str) -> str:
+            return f"n/a ({missing[name]})" if name in missing else text
+
+        figures = {
+            "precision": f"{s['precision']:.3f}",
+            "recall": f"{s['recall']:.3f}",
+            "class_accuracy": f"{s['class_accuracy']:.3f}",
+            "bearing_error": f"{s['bearing_error_mean_deg']:.2f} deg "
+            f"(max {s['bearing_error_max_deg']:.2f})",
+            "distance_error": f"{100 * s['distance_error_mean_relative']:.1f}%",
+        }
+        text = {name: shown(name, value) for name, value in figures.items()}
         return (
             f"{self.bag}: {s['images']} image(s) of {self.episodes} episode(s), "
             f"{s['objects']} object(s) of >= {self.score.min_pixels} pixels\n"
-            f"precision {s['precision']:.3f}, recall {s['recall']:.3f}, "
-            f"class accuracy {s['class_accuracy']:.3f}, "
-            f"bearing error mean {s['bearing_error_mean_deg']:.2f} deg "
-            f"(max {s['bearing_error_max_deg']:.2f}), "
-            f"distance error mean {100 * s['distance_error_mean_relative']:.1f}%"
+            f"precision {text['precision']}, recall {text['recall']}, "
+            f"class accuracy {text['class_accuracy']}, "
+            f"bearing error mean {text['bearing_error']}, "
+            f"distance error mean {text['distance_error']}"
         )
+
+
+_FIGURE_KEYS = {
+    "precision": ("precision",),
+    "recall": ("recall",),
+    "class_accuracy": ("class_accuracy",),
+    "bearing_error": (
+        "bearing_error_mean_deg",
+        "bearing_error_max_deg",
+        "bearing_error_mean_deg_in_view",
+    ),
+    "distance_error": ("distance_error_mean_relative",),
+}
+"""The summary's keys of each figure :meth:`DetectReport.missing` can name."""
 
 
 def _make_env(meta: dict[str, Any]) -> gym.Env[Any, Any]:
@@ -114,7 +170,7 @@ def _score_episode(
     report: DetectReport,
 ) -> None:
     """Add the scores of episode ``meta``'s images (up to ``stop`` ns) to ``report``."""
-    names = Topics.from_dict(meta["topics"]).resolved()
+    names = bag_topic_names((c.topic for c in reader.connections), [meta])
     start = meta["start_time_ns"]
     images = _recorded(reader, names["image"], start, stop) if "image" in names else []
     if not images:

@@ -6,8 +6,10 @@ where ``/tf`` lacks it), the laser's pose on ``base_link`` from ``/tf_static``, 
 episode begins at each ``/map`` (every episode's map is written at its first stamp, in bags and
 live alike, so a ``rosbag record`` of a live node splits the same way) and ends at the next.
 The truth, kept to score the filter, is ``/base_pose_ground_truth``; a bag without it was recorded
-without ``odometry_noise``, whose ``/odom`` is the truth itself. Topics are found by the last part
-of their names, so a namespaced robot's ``/robot2/scan`` is read too.
+without ``odometry_noise``, whose ``/odom`` is the truth itself. A bag whose metadata says its
+odometry drifts but that lacks the truth is refused: its ``/odom`` is no truth to score against.
+Topics are found by :mod:`~bubblerob_env.ros.bag_topics` (the metadata's names, else the last part
+of each name), so ``--topics vrep`` and a namespaced robot's ``/robot2/scan`` are read too.
 """
 
 from __future__ import annotations
@@ -53,12 +55,7 @@ def _pose(p: Any, q: Any) -> Pose:
     return (float(p.x), float(p.y), _yaw(q))
 
 
-def _role(topic: str) -> str | None:
-    """Which input a topic is, by its name's last part (``/robot2/scan`` is a scan)."""
-    if topic in ("/tf", "/tf_static"):
-        return topic[1:]
-    last = topic.rsplit("/", 1)[-1]
-    return last if last in ("scan", "odom", "map", "base_pose_ground_truth") else None
+_ROLES = ("tf", "tf_static", "scan", "odom", "map", "base_pose_ground_truth")
 
 
 class _Collected:
@@ -98,17 +95,30 @@ def _grid(message: Any) -> Grid:
 
 
 def _collect(path: str | Path) -> tuple[_Collected, list[dict[str, Any]]]:
+    from bubblerob_env.ros.bag_topics import BagTopicsError, bag_topic_names
     from bubblerob_env.ros.readback.summary import bag_root, find_episodes, open_reader
 
     found = _Collected()
     with open_reader(bag_root(path)) as reader:
         _, metadata = find_episodes(reader)
-        wanted = [c for c in reader.connections if _role(c.topic) is not None]
+        try:
+            names = bag_topic_names((c.topic for c in reader.connections), metadata)
+        except BagTopicsError as error:
+            raise LocalizeBagError(f"{path}: {error}") from None
+        role = {names[key]: key for key in _ROLES if key in names}
+        wanted = [c for c in reader.connections if c.topic in role]
         for connection, _, raw in reader.messages(connections=wanted):
-            role = _role(connection.topic)
-            assert role is not None
-            found.add(role, reader.deserialize(raw, connection.msgtype))
+            found.add(role[connection.topic], reader.deserialize(raw, connection.msgtype))
     return found, metadata
+
+
+def _drifting(metadata: list[dict[str, Any]]) -> bool:
+    """Whether an episode was recorded with ``odometry_noise`` > 0 (its ``/odom`` drifts)."""
+    for meta in metadata:
+        noise = (meta.get("env_kwargs") or {}).get("odometry_noise")
+        if isinstance(noise, int | float) and noise > 0:
+            return True
+    return False
 
 
 def _geometry(scan: Any, statics: dict[str, Pose]) -> ScanGeometry:
@@ -138,6 +148,11 @@ def read_bag_episodes(path: str | Path) -> BagEpisodes:
     odometry = found.tf_odom or found.odom
     if not odometry:
         raise LocalizeBagError(f"{path} has neither odom -> base_link on /tf nor /odom")
+    if not found.truth and _drifting(metadata):
+        raise LocalizeBagError(
+            f"{path} was recorded with odometry_noise but has no /base_pose_ground_truth: its "
+            "drifting /odom is no truth to score against (n/a); record that topic too"
+        )
     truth, truth_topic = (found.truth, "/base_pose_ground_truth") if found.truth else (
         found.odom, "/odom")  # fmt: skip
     seeds = {int(m["start_time_ns"]): m.get("seed") for m in metadata}

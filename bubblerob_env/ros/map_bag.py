@@ -9,6 +9,9 @@ env id and kwargs and reset with the recorded seed, as replay does. ``map`` and 
 
 The IoU printed is that of the occupied cells over the cells the scans observed (free or
 occupied): the insides of obstacles and walls are never seen by a laser, so they are left out.
+An IoU over nothing (no scan placed, no occupied cell on either side) is ``None``, with the
+reason in :attr:`MapResult.missing`: never a score of 1. Topics are found as ``localize`` finds
+them (:mod:`~bubblerob_env.ros.bag_topics`): ``--topics vrep`` and namespaced bags map too.
 """
 
 from __future__ import annotations
@@ -30,6 +33,7 @@ from bubblerob_env.mapping import (
     occupied_iou,
 )
 from bubblerob_env.png import write_png  # stdlib zlib: the [ros] extra brings no image library
+from bubblerob_env.ros.bag_topics import BagTopicsError, bag_topic_names
 from bubblerob_env.ros.readback.episode_env import make_episode_env
 from bubblerob_env.ros.readback.summary import bag_root, find_episodes, open_reader
 
@@ -50,8 +54,22 @@ class MapResult:
         """Where the ground truth came from: the bag's ``/map`` or the re-simulated episode."""
         observed = mapped.data != UNKNOWN
         seen_truth = np.where(observed, truth.data, 0).astype(np.int8)
-        self.iou = occupied_iou(mapped, Grid(seen_truth, truth.origin, truth.resolution))
-        self.iou_all = occupied_iou(mapped, truth)
+        seen = Grid(seen_truth, truth.origin, truth.resolution)
+        self.missing = _missing(mapped, truth, seen, scans)
+        """Why the IoUs are ``None`` (empty when they are numbers)."""
+        self.iou = None if self.missing else occupied_iou(mapped, seen)
+        self.iou_all = None if self.missing else occupied_iou(mapped, truth)
+
+
+def _missing(mapped: Grid, truth: Grid, seen: Grid, scans: int) -> str:
+    """Why no IoU can be computed, or ``""``: its union must hold a cell."""
+    if scans == 0:
+        return "no scan was placed: the bag has no laser scans at odometry stamps"
+    if not np.any(truth.data == OCCUPIED):
+        return "the ground truth has no occupied cell"
+    if not np.any((mapped.data == OCCUPIED) | (seen.data == OCCUPIED)):
+        return "no occupied cell was observed or mapped"
+    return ""
 
 
 def _yaw(q: Any) -> float:
@@ -81,13 +99,14 @@ def map_bag(
 ) -> MapResult:
     """Map episode ``episode`` (its index in the bag) of the bag at ``path``.
 
-    The ground truth is the bag's ``/map`` at ``resolution`` if it has one, else the episode
-    re-simulated: its env made from the metadata's id and kwargs, or from ``env_id`` and
-    ``env_kwargs`` where given (a bag of an env registered under another name here).
+    The ground truth is the bag's ``/map`` at ``resolution`` if it has one and neither
+    ``env_id`` nor ``env_kwargs`` is given, else the episode re-simulated: its env made from the
+    metadata's id and kwargs, or from ``env_id`` and ``env_kwargs`` where given (a bag of an env
+    registered under another name here).
 
     Raises:
-        MapError: The bag holds no episode metadata or no episode ``episode``, or its metadata
-            does not make an env.
+        MapError: The bag holds no episode metadata or no episode ``episode``, its metadata
+            does not make an env, or ``env_id`` / ``env_kwargs`` do not make one.
         OSError: Not a bag, or a damaged one (``CorruptBagError``).
     """
     with open_reader(bag_root(path)) as reader:
@@ -96,8 +115,14 @@ def map_bag(
         meta = episodes[episode]
         start = int(meta["start_time_ns"])
         end = int(episodes[episode + 1]["start_time_ns"]) if episode + 1 < len(episodes) else None
-        recorded, scans, poses, laser_offset = _read_episode(reader, start, end, resolution)
-    if recorded is None:
+        try:
+            names = bag_topic_names((c.topic for c in reader.connections), episodes)
+        except BagTopicsError as error:
+            raise MapError(f"{path}: {error}") from None
+        recorded, scans, poses, laser_offset = _read_episode(
+            reader, names, (start, end), resolution
+        )
+    if recorded is None or env_id is not None or env_kwargs is not None:
         truth, source = _simulated(meta, resolution, env_id, env_kwargs), ""
     else:
         truth, source = recorded, "the bag's /map"
@@ -126,26 +151,27 @@ Pose = tuple[float, float, float]
 
 
 def _read_episode(
-    reader: Any, start: int, end: int | None, resolution: float
+    reader: Any, names: dict[str, str], span: tuple[int, int | None], resolution: float
 ) -> tuple[Grid | None, list[tuple[int, Any]], dict[int, Pose], Pose]:
     """What :func:`map_bag` reads of one episode, from ``start`` to before ``end`` (ns).
 
     Its ``/map`` at ``resolution`` (or None), its scans, ``odom -> base_link`` poses by stamp and
-    ``base_link -> laser_link``.
+    ``base_link -> laser_link``; ``names``: the bag's topic of each key.
     """
+    start, end = span
     laser_offset = (0.0, 0.0, 0.0)
     poses: dict[int, Pose] = {}
     scans: list[tuple[int, Any]] = []
     recorded: Grid | None = None
-    topics = ("/tf", "/tf_static", "/scan", "/map")
-    wanted = [c for c in reader.connections if c.topic in topics]
+    role = {names[key]: key for key in ("tf", "tf_static", "scan", "map") if key in names}
+    wanted = [c for c in reader.connections if c.topic in role]
     for connection, _, raw in reader.messages(connections=wanted):
         message = reader.deserialize(raw, connection.msgtype)
-        if connection.topic == "/map":
+        if role[connection.topic] == "map":
             if _stamp(message.header) == start:
                 recorded = _grid(message, resolution)
             continue
-        if connection.topic == "/scan":
+        if role[connection.topic] == "scan":
             stamp = _stamp(message.header)
             if stamp >= start and (end is None or stamp < end):
                 scans.append((stamp, message))
