@@ -114,8 +114,10 @@ client.on("serviceCallFailure", (failure) => {
   out.failures.push(failure);
   serviceAnswered = true;
 });
+let opened = false;
 client.on("error", (error) => {
   console.error(`client error: ${error}`);
+  if (!opened) report({ ...out, error: String(error) }, 1); // never connected
 });
 // Exit once stdout is flushed (a pipe takes large reports in several writes).
 const report = (value, status) => {
@@ -123,6 +125,7 @@ const report = (value, status) => {
   process.stdout.write(JSON.stringify(value) + "\n", () => process.exit(status));
 };
 client.on("open", async () => {
+  opened = true;
   try {
     await run(client, ws);
     report(out, 0);
