@@ -159,6 +159,13 @@ def _add_later_arguments(node: argparse.ArgumentParser) -> None:
         "/initialpose in; 'track' (the default) from each episode's start pose, 'global' from "
         "particles over all the free space",
     )
+    node.add_argument(
+        "--policy",
+        default=None,
+        metavar="NAME",
+        help="drive the robot with this policy instead of /cmd_vel (as evaluate --policy): "
+        "navigator on a Nav env drives to each goal (with --localize, seen from the estimate)",
+    )
     node.add_argument("--steps", type=int, default=None, help="exit after this many steps")
     node.add_argument("--duration", type=float, default=None, help="exit after this many seconds")
     node.add_argument(
@@ -216,9 +223,11 @@ def _node(args: argparse.Namespace) -> int:
     if args.localize and getattr(env.unwrapped, "laser_spec", None) is None:
         env.close()
         fail("node", "--localize needs the laser: leave laser_num_rays above 0")
+    driver = None if args.policy is None else _driver(args.policy, env)
     backend = _start_backend(args, env)
     config = _follow_clock(args, backend, config)
-    node = SimNode(env, backend, topics, CONTROL_PRESETS.get(args.topics), config=config)
+    controls = CONTROL_PRESETS.get(args.topics)
+    node = SimNode(env, backend, topics, controls, config=config, driver=driver)
     where = f"ROS {args.ros}"
     if args.foxglove:
         where = _serve_foxglove(backend, node, args.namespace)

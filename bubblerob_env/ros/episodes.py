@@ -33,12 +33,16 @@ from bubblerob_env.mapping import (
     has_arena,
 )
 from bubblerob_env.ros.fanout import MessageFanout
+from bubblerob_env.ros.messages.topics import Topics
+from bubblerob_env.tasks.goals import NavProblem
+from bubblerob_env.tasks.nav import BubbleRobNavEnv
 
 __all__ = [
     "MAX_START_NS",
     "RESERVED_KEYS",
     "EpisodeStream",
     "env_metadata",
+    "env_topics",
     "jsonable",
     "start_time_ns",
 ]
@@ -105,6 +109,11 @@ def env_metadata(env: gym.Env[Any, Any]) -> dict[str, Any]:
         "env_kwargs": jsonable(spec.kwargs),
         "max_episode_steps": spec.max_episode_steps,
     }
+
+
+def env_topics(env: gym.Env[Any, Any], topics: Topics) -> Topics:
+    """``topics`` for ``env``: with a Nav env's goal and path (:meth:`Topics.for_nav`)."""
+    return topics.for_nav() if isinstance(env.unwrapped, BubbleRobNavEnv) else topics
 
 
 def _version() -> str:
@@ -203,7 +212,8 @@ class EpisodeStream:
                     UserWarning,
                     stacklevel=2,
                 )
-        self.begin(obs, info, metadata, grid)
+        problem = getattr(env.unwrapped, "problem", None)  # a Nav env's goal and path
+        self.begin(obs, info, metadata, grid, problem if isinstance(problem, NavProblem) else None)
         self.episodes += 1
         return obs, info, metadata
 
@@ -213,11 +223,12 @@ class EpisodeStream:
         info: Mapping[str, Any],
         metadata: Mapping[str, Any],
         grid: Grid | None = None,
+        problem: NavProblem | None = None,
     ) -> int:
         """Send a new episode's records and first frame (after a reset); its start stamp.
 
         ``/tf_static`` goes first when the stream (re)starts, then the episode's metadata record,
-        ``/map`` of ``grid`` (if given) and the frame.
+        ``/map`` of ``grid`` (if given), a Nav env's goal and path (``problem``) and the frame.
         """
         start = self.next_start()
         self._offset_ns = start - round(float(info["sim_time"]) * 1e9)
@@ -226,10 +237,19 @@ class EpisodeStream:
         self.fanout.write_records(lambda s: [s.episode(metadata, start)])
         if grid is not None:
             self.fanout.write_records(lambda s: s.map(grid, start))
+        if problem is not None:
+            self.fanout.write_records(lambda s: s.goal(problem, start))
         self.fanout.write_frame(obs, info, start, self.seq)
         self.seq += 1
         self.last_ns = start
         return start
+
+    def new_goal(self, problem: NavProblem) -> None:
+        """Send a goal and path set during an episode, stamped with its latest frame."""
+        if self.last_ns is None:
+            raise RuntimeError("new_goal before the episode's first frame")
+        stamp = self.last_ns
+        self.fanout.write_records(lambda s: s.goal(problem, stamp))
 
     def step(
         self,

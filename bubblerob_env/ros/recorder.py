@@ -26,7 +26,13 @@ from bubblerob_env.ros.bags.sinks import (
     open_bag,
     remove_bag,
 )
-from bubblerob_env.ros.episodes import RESERVED_KEYS, EpisodeStream, jsonable, start_time_ns
+from bubblerob_env.ros.episodes import (
+    RESERVED_KEYS,
+    EpisodeStream,
+    env_topics,
+    jsonable,
+    start_time_ns,
+)
 from bubblerob_env.ros.fanout import MessageFanout
 from bubblerob_env.ros.messages.topics import Topics
 from bubblerob_env.specs import EnvSpecs
@@ -101,7 +107,7 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
         self.format = format
         self.distro = distro or DEFAULT_DISTRO[format]
         self.compression = compression
-        self.topics = topics or Topics()
+        self.topics = env_topics(env, topics or Topics())
         self.overwrite = overwrite
         self.per_episode = per_episode
         self.metadata = dict(jsonable(metadata or {}))

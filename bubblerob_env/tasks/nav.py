@@ -18,7 +18,7 @@ from bubblerob_env.checks import (
 )
 from bubblerob_env.config import ARGUMENTS
 from bubblerob_env.env import BubbleRobEnv
-from bubblerob_env.mapping import DEFAULT_RESOLUTION, FREE, RESOLUTION_RANGE, has_arena
+from bubblerob_env.mapping import DEFAULT_RESOLUTION, FREE, RESOLUTION_RANGE, Grid, has_arena
 from bubblerob_env.tasks.goals import (
     NavProblem,
     cell_of,
@@ -191,18 +191,26 @@ class BubbleRobNavEnv(BubbleRobEnv):
                 self.np_random, self.layout, arena, radius, self.min_goal_distance,
                 self.grid_resolution,
             )  # fmt: skip
-        target = _check_goal(goal, arena)
         grid = clearance_grid(self.layout, arena, radius, self.grid_resolution)
-        if grid.data[cell_of(grid, target)] != FREE:
-            raise ValueError(
-                f"goal {target} is inside an obstacle or a wall widened by the robot's radius "
-                f"({radius} m); choose a free point"
-            )
         start = self.layout.start_pose[:2]
-        path = plan_path(grid, (start[0], start[1]), target)
-        if path is None:
-            raise ValueError(f"goal {target} cannot be reached from the start {start}")
-        return NavProblem((start[0], start[1]), target, path, path_length(path), grid)
+        return _planned(grid, goal, (start[0], start[1]), radius, arena)
+
+    def set_goal(self, goal: Any, start: tuple[float, float] | None = None) -> NavProblem:
+        """Give this episode a new goal ``(x, y)`` now, as a ROS user's goal does mid-episode.
+
+        The shortest path is planned from ``start`` (default: the robot's position; the live
+        node passes its pose estimate) on this episode's grid; the goal is refused with a
+        ``ValueError`` as ``reset``'s ``options["goal"]``. ``info``'s goal and shortest path
+        follow from the next step; the distance driven goes on.
+        """
+        if self.problem is None:
+            raise RuntimeError("set_goal() called before reset(): reset the env first")
+        here = self.robot_pose[:2] if start is None else (float(start[0]), float(start[1]))
+        radius, arena = self.robot.radius, float(self.arena_size)
+        self.problem = _planned(self.problem.grid, goal, here, radius, arena)
+        x, y, _ = self.robot_pose
+        self._goal_distance = math.hypot(self.problem.goal[0] - x, self.problem.goal[1] - y)
+        return self.problem
 
     def step(
         self, action: NDArray[np.float32]
@@ -268,6 +276,22 @@ def _check_metres(label: str, value: object) -> float:
         return check_positive(label, value)
     except ValueError:
         raise ValueError(f"{label} must be a finite number of metres > 0, got {value!r}") from None
+
+
+def _planned(
+    grid: Grid, goal: Any, start: tuple[float, float], radius: float, arena_size: float
+) -> NavProblem:
+    """The problem of reaching ``goal`` from ``start`` on ``grid``; a ``ValueError`` if none."""
+    target = _check_goal(goal, arena_size)
+    if grid.data[cell_of(grid, target)] != FREE:
+        raise ValueError(
+            f"goal {target} is inside an obstacle or a wall widened by the robot's radius "
+            f"({radius} m); choose a free point"
+        )
+    path = plan_path(grid, start, target)
+    if path is None:
+        raise ValueError(f"goal {target} cannot be reached from {start}")
+    return NavProblem(start, target, path, path_length(path), grid)
 
 
 def _check_goal(goal: Any, arena_size: float) -> tuple[float, float]:

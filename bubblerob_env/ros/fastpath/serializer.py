@@ -30,6 +30,7 @@ from bubblerob_env.specs import EnvSpecs
 
 if TYPE_CHECKING:
     from bubblerob_env.mapping import Grid
+    from bubblerob_env.tasks.goals import NavProblem
 
 __all__ = ["FramePacker", "FrameSerializer"]
 
@@ -183,6 +184,19 @@ class FrameSerializer:
         cells = np.ascontiguousarray(grid.data, dtype=np.int8).tobytes()
         data = packer.pack_one((sec, nanosec, 0, cells), stamp_ns, stamp_ns)
         return [(self.names["map"], stamp_ns, data)]
+
+    def goal(self, problem: NavProblem, stamp_ns: int) -> list[Record]:
+        """A Nav env's goal and path records (those of its topics not left out)."""
+        records = []
+        if "goal" in self.names:
+            message = self.converter.goal(stamp_ns, problem.goal)
+            data = serialize(self.distro.name, message, MSGTYPES["goal"])
+            records.append((self.names["goal"], stamp_ns, data))
+        if "plan" in self.names:
+            message = self.converter.plan(stamp_ns, problem.path.tolist())
+            data = serialize(self.distro.name, message, MSGTYPES["plan"])
+            records.append((self.names["plan"], stamp_ns, data))
+        return records
 
     def episode(self, metadata: Mapping[str, Any], stamp_ns: int) -> Record:
         """The episode metadata record (``std_msgs/String`` holding JSON)."""

@@ -103,6 +103,9 @@ class LiveLocalizer:
         self._lock = threading.Lock()
         self._initial: tuple[Pose, Pose] | None = None
         self.filter: ParticleFilter | None = None
+        self.pose: tuple[float, float, float] | None = None
+        """The estimate (x, y, yaw) in ``map`` after the latest frame: what the node plans and
+        drives on (a Nav env's goals, ``--policy``)."""
         self.episodes = 0
         self.updates = 0
         self.initial_poses = 0
@@ -151,6 +154,8 @@ class LiveLocalizer:
         updated = laser_on and pf.update(odom, np.asarray(obs["laser"], dtype=np.float64))
         if updated:
             self.updates += 1
+        x, y, yaw = (float(v) for v in pf.estimate(odom))
+        self.pose = (x, y, yaw)
         if updated or initial is not None:
             self._publish_estimate(odom, stamp_ns)
         if self._tf_out is not None:

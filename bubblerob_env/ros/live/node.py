@@ -33,9 +33,11 @@ from bubblerob_env.ros.live.controls import (
     decode_control,
 )
 from bubblerob_env.ros.live.localizer import LOCALIZE_MODES, LiveLocalizer, LocalizerConfig
+from bubblerob_env.ros.live.navigation import LiveNavigation
 from bubblerob_env.ros.live.wrapper import RosLivePublisher
 from bubblerob_env.ros.messages.distros import deserialize, get_distro, serialize, typestore
 from bubblerob_env.ros.messages.topics import Topics
+from bubblerob_env.tasks.nav import BubbleRobNavEnv
 
 __all__ = ["LAUNCH_DIR", "STOPPED", "RUNNING", "PAUSED", "NodeConfig", "SimNode", "shared_clock_ns"]
 
@@ -45,6 +47,8 @@ LAUNCH_DIR = Path(__file__).resolve().parent.parent / "launch"
 STOPPED, RUNNING, PAUSED = 0, 1, 2
 """Values of ``simulationState`` (``std_msgs/Int32``), as CoppeliaSim publishes them."""
 COMMAND_KEYS = ("cmd_vel", "left_motor_speed", "right_motor_speed")
+Driver = Callable[[Any, bool], Any]
+"""``driver(obs, episode_start) -> action``: what drives the robot instead of the topics."""
 
 
 @dataclass(frozen=True)
@@ -138,8 +142,13 @@ class SimNode:
         topics: Topics | None = None,
         controls: ControlTopics | None = None,
         config: NodeConfig | None = None,
+        driver: Driver | None = None,
     ) -> None:
         """Advertise every output and subscribe every input (nothing is stepped yet).
+
+        ``driver(obs, episode_start)`` (e.g. a policy's ``predict``), if given, drives the robot
+        instead of the wheel-command topics; with ``localize`` a Nav env's goal in its
+        observation is seen from the pose estimate (:meth:`LiveNavigation.observed`).
 
         Raises:
             ValueError: The env is not in ``"wheels"`` mode.
@@ -186,6 +195,13 @@ class SimNode:
         self._state_out = backend.advertise(self.names["state"], "std_msgs/msg/Int32", True)
         self._subscribe_all()
         self.localizer = self._make_localizer(live_topics)
+        self.navigation = None
+        if isinstance(base, BubbleRobNavEnv):  # goals on /move_base_simple/goal, as move_base
+            warn = lambda t, r, d: self._reject(t, r, d, every=0.2)  # noqa: E731 - goals: few
+            self.navigation = LiveNavigation(base, self.publisher, live_topics, warn)
+        self.driver = driver
+        self._obs: Any = None
+        self._episode_start = True
 
     def _make_localizer(self, topics: Topics) -> LiveLocalizer | None:
         config = self.config
@@ -247,8 +263,8 @@ class SimNode:
 
         return callback
 
-    def _reject(self, topic: str, reason: str, detail: str) -> None:
-        if self.state.should_warn(topic, reason):
+    def _reject(self, topic: str, reason: str, detail: str, every: float = 2.0) -> None:
+        if self.state.should_warn(topic, reason, every):
             self.backend.log("warn", f"ignoring a {reason} message on {topic}: {detail}")
 
     # -- simulation -----------------------------------------------------------------------------
@@ -269,6 +285,9 @@ class SimNode:
         self.state.set_time(self.sim_time)
         if self.localizer is not None:
             self._localise(obs, info, reset=True)
+        self._obs, self._episode_start = obs, True
+        if self.navigation is not None:
+            self.navigation.new_episode()
 
     def _localise(self, obs: Any, info: dict[str, Any], reset: bool = False) -> None:
         localizer, stamp = self.localizer, self.publisher.stamp_ns
@@ -314,17 +333,44 @@ class SimNode:
         """One control step with the current command; returns ``(terminated, truncated)``."""
         if self.first_step_at is None:
             self.first_step_at = time.perf_counter()
-        action = self.state.action(self.sim_time)
+        action = self._action()
         obs, _, terminated, truncated, info = self.publisher.step(action)
         self.steps += 1
         if self.localizer is not None:
             self._localise(obs, info)
+        self._obs = obs
+        if self.navigation is not None:
+            self.navigation.after_step(info, self.sim_time)
         if terminated or truncated:
             self._new_episode()
         self.state.set_time(self.sim_time)
         self._step_done(self._bool[True])
         self.last_step_at = time.perf_counter()
         return terminated, truncated
+
+    def _action(self) -> Any:
+        """The wheel-command topics' action, or the driver's (see ``__init__``)."""
+        action = self.state.action(self.sim_time)
+        if self.driver is None or self._obs is None:
+            return action
+        obs, pose = self._obs, self._estimate()
+        if self.navigation is not None and pose is not None:
+            obs = self.navigation.observed(obs, pose)
+        start, self._episode_start = self._episode_start, False
+        return self.driver(obs, start)
+
+    def _estimate(self) -> tuple[float, float, float] | None:
+        """The localiser's pose estimate in ``map``; None without ``localize``."""
+        return None if self.localizer is None else self.localizer.pose
+
+    def _apply_goal(self) -> None:
+        """A Nav env's goal received since the last call, planned from the robot's pose."""
+        if self.navigation is None or self.publisher.stamp_ns is None:
+            return
+        pose = self._estimate()
+        pf = None if self.localizer is None else self.localizer.filter
+        tx, ty, yaw = (0.0, 0.0, 0.0) if pf is None else (float(v) for v in pf.map_to_odom())
+        self.navigation.apply(None if pose is None else (pose[0], pose[1]), (tx, ty, yaw))
 
     def run(self, max_steps: int | None = None, duration: float | None = None) -> int:
         """Run until shut down, ``max_steps`` steps, or ``duration`` wall seconds; steps taken."""
@@ -343,6 +389,7 @@ class SimNode:
             for event, value in self.state.drain():
                 self._handle(event, value)
             self._apply_switches()
+            self._apply_goal()
             if self.sim_state != RUNNING or (self.sync and self._pending <= 0):
                 deadline = None
                 self.state.wait(min(0.05, max(0.0, end - time.monotonic())))

@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bubblerob_env.mapping import DEFAULT_RESOLUTION
-from bubblerob_env.ros.episodes import EpisodeStream, jsonable, start_time_ns
+from bubblerob_env.ros.episodes import EpisodeStream, env_topics, jsonable, start_time_ns
 from bubblerob_env.ros.fanout import MessageFanout
 from bubblerob_env.ros.live.backend import LiveBackend
 from bubblerob_env.ros.live.connect import load_backend
@@ -24,6 +24,7 @@ from bubblerob_env.ros.live.sink import LiveSink
 from bubblerob_env.ros.messages.topics import Topics
 from bubblerob_env.ros.sink import Sink
 from bubblerob_env.specs import EnvSpecs
+from bubblerob_env.tasks.goals import NavProblem
 
 __all__ = ["RosLivePublisher"]
 
@@ -67,7 +68,7 @@ class RosLivePublisher(gym.Wrapper[Any, Any, Any, Any]):
         static_map_to_odom: bool = True,
     ) -> None:
         super().__init__(env)
-        self.topics = topics or Topics()
+        self.topics = env_topics(env, topics or Topics())
         self._own_backend = backend is None
         self.backend = backend or load_backend(ros, namespace=self.topics.namespace)
         self.specs = EnvSpecs.from_env(env)
@@ -126,6 +127,10 @@ class RosLivePublisher(gym.Wrapper[Any, Any, Any, Any]):
             obs, info, np.asarray(action), float(reward), bool(terminated), bool(truncated)
         )
         return obs, float(reward), terminated, truncated, info
+
+    def new_goal(self, problem: NavProblem) -> None:
+        """Publish a Nav env's goal and path set mid-episode (stamped with the latest frame)."""
+        self._stream.new_goal(problem)
 
     def close(self) -> None:
         """Stop publishing, close the extra sinks, shut down an own backend, close the env."""

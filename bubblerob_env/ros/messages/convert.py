@@ -35,6 +35,7 @@ from rosbags.typesys.store import Typestore
 
 from bubblerob_env.ros.messages.detections import detection_array
 from bubblerob_env.ros.messages.distros import get_distro, typestore
+from bubblerob_env.ros.messages.navigation import goal_pose, path_message
 from bubblerob_env.ros.messages.topics import MSGTYPES
 from bubblerob_env.ros.messages.values import (
     SCALAR_NAMES,
@@ -373,6 +374,19 @@ class RosConverter(FrameValues):
         assert spec is not None
         header = self._header(v, spec.frame_id)
         return detection_array(self._types, header, classes, numbers)
+
+    def goal(self, stamp_ns: int, goal: tuple[float, float]) -> Any:
+        """A Nav env's goal (x, y) in ``map`` (:mod:`~bubblerob_env.ros.messages.navigation`)."""
+        sec, nanosec = split_stamp(stamp_ns)
+        return goal_pose(
+            self._types, self._header({"sec": sec, "nanosec": nanosec, "seq": 0}, MAP_FRAME), goal
+        )
+
+    def plan(self, stamp_ns: int, points: Sequence[Sequence[float]]) -> Any:
+        """A Nav env's planned path ``(n, 2)`` in ``map`` as a ``nav_msgs/Path``."""
+        sec, nanosec = split_stamp(stamp_ns)
+        v = {"sec": sec, "nanosec": nanosec, "seq": 0}
+        return path_message(self._types, lambda: self._header(v, MAP_FRAME), points)
 
     def episode(self, metadata: Mapping[str, Any]) -> Any:
         """``/bubblerob/episode``: the episode's metadata as a JSON ``std_msgs/String``."""

@@ -18,6 +18,7 @@ __all__ = [
     "GLOBAL_TOPICS",
     "LATCHED_TOPICS",
     "MSGTYPES",
+    "NAV_TOPICS",
     "PRESETS",
     "Topics",
     "check_ros_name",
@@ -47,14 +48,22 @@ MSGTYPES: dict[str, str] = {
     "map": "nav_msgs/msg/OccupancyGrid",
     "base_pose_ground_truth": "nav_msgs/msg/Odometry",
     "detections": "vision_msgs/msg/Detection2DArray",
+    "goal": "geometry_msgs/msg/PoseStamped",
+    "plan": "nav_msgs/msg/Path",
 }
 """Message type of each topic key (ROS 2 style names, as ``rosbags`` spells them)."""
 
-LATCHED_TOPICS = ("tf_static", "episode", "map")
+LATCHED_TOPICS = ("tf_static", "episode", "map", "goal", "plan")
 """Keys written latched (ROS 1) / transient-local (ROS 2): a late subscriber still gets them."""
 
 ADDED_TOPICS = ("detections",)
 """Keys added after the first recordings: absent from their metadata, so not in their bags."""
+
+NAV_TOPICS = {"goal": "/move_base/current_goal", "plan": "/plan"}
+"""Keys of a Nav env's (``BubbleRobNav-v0``) goal and planned path, with their default names
+(move_base's ``current_goal``; Nav2's planner's ``/plan``). Left out (``None``) in
+:class:`Topics` by default and in the metadata of bags without them, so that other envs' bags
+stay as they were; :meth:`Topics.for_nav` turns them on."""
 
 GLOBAL_TOPICS = ("tf", "tf_static", "clock")
 """Keys whose names a namespace does not change (tf and the clock are shared by all robots)."""
@@ -104,7 +113,9 @@ class Topics:
     (``nav_msgs/Odometry`` in ``map``, as Stage's ROS driver names it); without, ``/odom`` is the
     truth and that topic is not written. ``/detections`` (``vision_msgs/Detection2DArray``) has
     what the recogniser (:mod:`bubblerob_env.vision`) finds in each camera image, stamped with the
-    image's stamp and frame; ``None`` turns the recogniser off.
+    image's stamp and frame; ``None`` turns the recogniser off. ``goal`` and ``plan``
+    (:data:`NAV_TOPICS`) are a Nav env's goal (``geometry_msgs/PoseStamped``) and shortest path
+    (``nav_msgs/Path``) in ``map``, latched, at every reset and every new goal.
     """
 
     scan: str | None = "/scan"
@@ -128,6 +139,8 @@ class Topics:
     map: str | None = "/map"
     base_pose_ground_truth: str | None = "/base_pose_ground_truth"
     detections: str | None = "/detections"
+    goal: str | None = None
+    plan: str | None = None
     namespace: str = ""
 
     def __post_init__(self) -> None:
@@ -173,8 +186,17 @@ class Topics:
         return names
 
     def to_dict(self) -> dict[str, str | None]:
-        """Plain dict (for episode metadata); :meth:`from_dict` rebuilds it."""
-        return dataclasses.asdict(self)
+        """Plain dict (for episode metadata); :meth:`from_dict` rebuilds it.
+
+        The Nav keys are left out where ``None``: the metadata of other envs' bags stays as it was.
+        """
+        names = dataclasses.asdict(self)
+        return {k: v for k, v in names.items() if not (k in NAV_TOPICS and v is None)}
+
+    def for_nav(self) -> Topics:
+        """These topics with a Nav env's goal and plan (:data:`NAV_TOPICS`) where not named."""
+        unnamed = {k: name for k, name in NAV_TOPICS.items() if getattr(self, k) is None}
+        return self.replace(**unnamed) if unnamed else self
 
     @classmethod
     def from_dict(cls, names: Mapping[str, str | None]) -> Topics:

@@ -22,7 +22,7 @@ import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
 from bubblerob_env.ros.fastpath.framing import Record
 from bubblerob_env.ros.fastpath.serializer import FrameSerializer
 from bubblerob_env.ros.messages.distros import deserialize
-from bubblerob_env.ros.messages.topics import MSGTYPES, Topics
+from bubblerob_env.ros.messages.topics import MSGTYPES, NAV_TOPICS, Topics
 from bubblerob_env.ros.readback.episode_env import make_episode_env
 from bubblerob_env.ros.readback.scan import CorruptBagError
 from bubblerob_env.ros.readback.summary import bag_root, find_episodes, open_reader
@@ -197,6 +197,7 @@ def replay_bag(path: str | Path, max_episodes: int | None = None) -> ReplayRepor
                 serializer = _serializer(env, meta)
                 stop = episodes[index + 1]["start_time_ns"] if index + 1 < len(episodes) else None
                 per_frame = {name for name, _, latched in serializer.topics() if not latched}
+                per_frame |= {serializer.names[k] for k in NAV_TOPICS if k in serializer.names}
                 compared_topics |= per_frame
                 recorded = _Episode(reader, meta["start_time_ns"], stop, per_frame)
                 result = _replay_episode(env, serializer, meta, recorded)
@@ -263,7 +264,9 @@ def _replay_episode(
     convert = serializer.converter.frame_args
     detect = _detector(env, serializer)
     args = convert(obs, info, start, seq)
-    divergence = check(serializer.frame(args, start, start, False) + detect(obs, start, seq), 0)
+    records = serializer.frame(args, start, start, False) + detect(obs, start, seq)
+    problem = getattr(base, "problem", None)  # a Nav env's goal and path, re-planned
+    divergence = check(records + (serializer.goal(problem, start) if problem else []), 0)
     if divergence is not None:
         return 0, compared, divergence
     last = start
