@@ -122,17 +122,24 @@ def drive(args, publish_twist, odom, odom_dict):
 
 
 def sync(args, trigger, done, clock, clock_ns):
-    """Trigger one step, then ``n`` more; /clock before and after (``trigger()`` publishes)."""
+    """Trigger one step, then ``n`` more; /clock after each part (``trigger()`` publishes).
+
+    Each stamp is read once ``--settle`` has passed with no trigger, so it is the latest step's:
+    /clock and simulationStepDone come on separate connections (a step's /clock may still be on
+    its way when its "done" is here), and a client that subscribes as the node starts may also get
+    the node's first frame (its reset, published just after "ready"), which is no step's.
+    """
     trigger()
     done.wait(1)
-    t0 = clock_ns(clock.wait(1))
-    c0 = clock.count
+    clock.wait(1)
+    time.sleep(args.settle)  # a node in sync mode publishes nothing more until triggered
+    t0, c0 = clock_ns(clock.latest), clock.count
     for _ in range(args.n):
         trigger()
     done.wait(1 + args.n, timeout=20)
     clock.wait(c0 + args.n)
-    t1 = clock_ns(clock.latest)
     time.sleep(args.settle)
+    t1 = clock_ns(clock.latest)
     return {"t0": t0, "t1": t1, "done": done.count - 1, "clocks": clock.count - c0}
 
 
