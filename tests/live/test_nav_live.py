@@ -31,7 +31,10 @@ NODE_ARGS = (
 @pytest.fixture(scope="module")
 def navigated(master, start_node):
     node = start_node(*NODE_ARGS)
-    command = ["/usr/bin/python3", str(CLIENT), "--goal", *map(str, GOAL), "--frame", "odom"]
+    command = [
+        "/usr/bin/python3", str(CLIENT), "--goal", *map(str, GOAL), "--frame", "odom",
+        "--bad-goals",
+    ]  # fmt: skip
     done = subprocess.run(
         command, env=master.debian_env, capture_output=True, text=True, timeout=90, check=False
     )
@@ -61,4 +64,38 @@ def test_bad_goals_get_one_line_each_and_the_node_goes_on(navigated):
     assert "frame_id 'base_link'" in lines[0] and "'map' or 'odom'" in lines[0]
     assert "goal (25.0, 0.0) is outside the arena" in lines[1] and "(-2, 2)" in lines[1]
     assert "goal (1.95, 0.0) is inside an obstacle or a wall" in lines[2]
+    assert node.alive()
+
+
+@pytest.fixture(scope="module")
+def localised(master, start_node):
+    """``--localize``: an /initialpose 0.3 m off the truth, then a goal in ``odom``, no steps."""
+    node = start_node(*NODE_ARGS, "--localize")
+    command = [
+        "/usr/bin/python3", str(CLIENT), "--goal", *map(str, GOAL), "--frame", "odom",
+        "--initial", str(START[0] + 0.3), str(START[1]), "--max-steps", "0",
+    ]  # fmt: skip
+    done = subprocess.run(
+        command, env=master.debian_env, capture_output=True, text=True, timeout=90, check=False
+    )
+    assert done.returncode == 0, done.stderr + node.output
+    return node, json.loads(done.stdout.splitlines()[-1])
+
+
+def test_with_localize_the_goal_and_plan_follow_the_estimate_not_the_truth(localised):
+    node, got = localised
+    x, y, qz, qw = got["estimates"]["amcl"]
+    assert math.dist((x, y), (START[0] + 0.3, START[1])) < 0.05  # the initial pose, not the truth
+    # The goal given in odom is moved into map by the node's own map -> odom (the estimate's).
+    tx, ty, tz, tw = got["estimates"]["map_to_odom"]
+    yaw = 2 * math.atan2(tz, tw)
+    gx = tx + math.cos(yaw) * GOAL[0] - math.sin(yaw) * GOAL[1]
+    gy = ty + math.sin(yaw) * GOAL[0] + math.cos(yaw) * GOAL[1]
+    frame, goal_x, goal_y = got["goals"][1]
+    assert frame == "map" and (goal_x, goal_y) == pytest.approx((gx, gy), abs=1e-9)
+    assert math.dist((goal_x, goal_y), GOAL) > 0.2  # not the truth's odom (= map) either
+    # The path starts where the robot believes it is.
+    _, plan = got["plans"][1]
+    assert plan[0] == pytest.approx([x, y], abs=1e-9) and plan[-1] == [goal_x, goal_y]
+    assert math.dist(plan[0], START) > 0.25
     assert node.alive()
