@@ -34,7 +34,6 @@ from numpy.typing import NDArray
 from bubblerob_env.batch.common import (
     add_finals,
     checked_autoreset_mode,
-    collate_infos,
     reset_mask,
     robot_obs,
     world_seeds,
@@ -223,7 +222,7 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
         diverged = {i: _DIVERGED_REASON for i in np.flatnonzero(host.diverged).tolist()}
         core, odometry = host, host.odometry
         if not with_success:  # reset(): every chosen world's reset info, no is_success
-            return _collate_resets(core, self._trigger, odometry, resets, self.num_envs)
+            return _reset_infos(core, self._trigger, resets, self.num_envs)
         reset_infos = {i: robot_info(core, i, self._trigger, 0, odometry) for i in resets}
         return batched_step_info(
             core,
@@ -265,13 +264,21 @@ class WarpVectorEnv(VectorEnv[Any, Any, Any]):
         self.__dict__.pop("worlds", None)
 
 
-def _collate_resets(
-    core: HostCopy,
-    trigger: float,
-    odometry: NDArray[np.float64],
-    resets: list[int],
-    n: int,
-) -> dict[str, Any]:
-    chosen = set(resets)  # once: a reset of every world has n of them
-    infos = [robot_info(core, i, trigger, 0, odometry) if i in chosen else {} for i in range(n)]
-    return collate_infos(infos)
+def _reset_infos(core: HostCopy, trigger: float, resets: list[int], n: int) -> dict[str, Any]:
+    """The reset ``info`` of the ``resets`` worlds, the others' keys zero and masked out.
+
+    What ``collate_infos`` makes of ``robot_info``'s dicts, in whole arrays (65,536 dicts cost
+    ~1 s).
+    """
+    none = np.zeros(n, dtype=bool)
+    info = batched_step_info(
+        core, trigger, none, np.zeros(n, dtype=np.int64), {}, {}, core.odometry
+    )
+    del info["is_success"], info["_is_success"]
+    chosen = np.zeros(n, dtype=bool)
+    chosen[resets] = True
+    if not chosen.all():
+        for key in [key for key in info if not key.startswith("_")]:
+            info[key][~chosen] = 0
+            info[f"_{key}"] = chosen.copy()
+    return info
