@@ -8,6 +8,7 @@ variants show.
 from __future__ import annotations
 
 import curses
+import math
 import time
 from typing import Any
 
@@ -90,6 +91,11 @@ def status_line(state: TeleopState, speed: float, nearest: float, collisions: in
         f"cmd lin {state.linear:+.1f} ang {state.angular:+.1f} | speed {speed:+.2f} m/s "
         f"| nearest {nearest:.2f} m | collisions {collisions}"
     )
+
+
+def goal_text(distance: float, bearing: float) -> str:
+    """A Nav env's goal for a status line: distance (m) and bearing (degrees, + is left)."""
+    return f"goal {distance:.2f} m at {math.degrees(bearing):+.0f} deg"
 
 
 class Clock:

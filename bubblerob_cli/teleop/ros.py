@@ -5,9 +5,10 @@ finds it; ``rclpy`` for ROS 2, from the ``.venv-ros2`` that runs ``bubblerob nod
 publishes ``geometry_msgs/Twist`` on the node's ``cmd_vel`` at the node's control rate, 20 Hz,
 as the keys set it (:class:`~bubblerob_cli.teleop.keys.TeleopState`, fractions of the robot's
 limits, scaled to m/s and rad/s here). The status lines show what the node publishes: measured
-speed and pose (``/odom``), the nearest laser reading (``/scan``) and the collisions
-(``/terminated``). The messages are decoded with the ROS layer's own type stores
-(``bubblerob_env.ros.messages``).
+speed and pose (``/odom``), the nearest laser reading (``/scan``), the collisions
+(``/terminated``) and, with a Nav env, the goal's distance and bearing from that pose
+(``/move_base/current_goal``; "reached" after ``/goal_reached``). The messages are decoded with
+the ROS layer's own type stores (``bubblerob_env.ros.messages``).
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from bubblerob_cli.teleop.keys import Clock, TeleopState, start_screen, status_line
+from bubblerob_cli.teleop.keys import Clock, TeleopState, goal_text, start_screen, status_line
 
 if TYPE_CHECKING:
     from bubblerob_env.ros.messages.topics import Topics
@@ -44,8 +45,9 @@ class RosLink:
 
     def __init__(self, ros: int, topics: Topics, max_linear: float, max_angular: float) -> None:
         from bubblerob_env.ros.live.connect import load_backend
+        from bubblerob_env.ros.live.navigation import GOAL_REACHED
         from bubblerob_env.ros.messages.distros import deserialize, serialize, typestore
-        from bubblerob_env.ros.messages.topics import MSGTYPES
+        from bubblerob_env.ros.messages.topics import MSGTYPES, namespace_prefix
 
         names = topics.resolved()
         self.topic = names["cmd_vel"]
@@ -65,6 +67,13 @@ class RosLink:
         self.speed = math.nan
         self.nearest = math.nan
         self.collisions = 0
+        self.goal: tuple[float, float] | None = None
+        """A Nav env's latest goal (x, y) in ``map``; ``None`` before one (or for other envs)."""
+        self.reached = False
+        nav = topics.for_nav().resolved()  # the node's names for a Nav env
+        self.backend.subscribe(nav["goal"], MSGTYPES["goal"], self._on_goal)
+        reached = namespace_prefix(topics.namespace) + GOAL_REACHED
+        self.backend.subscribe(reached, "std_msgs/msg/Bool", self._on_reached)
         self.backend.subscribe(names["odom"], MSGTYPES["odom"], self._on_odom)
         self.backend.subscribe(names["scan"], MSGTYPES["scan"], self._on_scan)
         self.backend.subscribe(names["terminated"], MSGTYPES["terminated"], self._on_terminated)
@@ -86,6 +95,16 @@ class RosLink:
         with self._lock:
             self.nearest = float(finite.min()) if finite.size else math.inf
 
+    def _on_goal(self, raw: bytes, _msgtype: str | None, _sender: str) -> None:
+        position = self._decode(raw, "geometry_msgs/msg/PoseStamped").pose.position
+        with self._lock:
+            self.goal = (float(position.x), float(position.y))
+
+    def _on_reached(self, raw: bytes, _msgtype: str | None, _sender: str) -> None:
+        reached = bool(self._decode(raw, "std_msgs/msg/Bool").data)
+        with self._lock:
+            self.reached = reached
+
     def _on_terminated(self, raw: bytes, _msgtype: str | None, _sender: str) -> None:
         if self._decode(raw, "std_msgs/msg/Bool").data:
             with self._lock:
@@ -105,10 +124,17 @@ class RosLink:
         """The two status lines: command, speed, nearest, collisions; pose."""
         with self._lock:
             pose, speed, nearest, collisions = self.pose, self.speed, self.nearest, self.collisions
+            goal, reached = self.goal, self.reached
         first = status_line(state, speed, nearest, collisions)
         if pose is None:
             return first, f"waiting for {self.odom_topic} from the node"
-        return first, f"pose x={pose[0]:+.2f} y={pose[1]:+.2f} yaw={pose[2]:+.2f} (odom)"
+        second = f"pose x={pose[0]:+.2f} y={pose[1]:+.2f} yaw={pose[2]:+.2f} (odom)"
+        if goal is not None:  # a Nav env's goal, seen from the odometry's pose
+            dx, dy = goal[0] - pose[0], goal[1] - pose[1]
+            bearing = math.remainder(math.atan2(dy, dx) - pose[2], math.tau)
+            second += " | " + goal_text(math.hypot(dx, dy), bearing)
+            second += " (reached)" if reached else ""
+        return first, second
 
     def close(self) -> None:
         """Stop the robot (a zero twist), then shut the node down."""

@@ -1,8 +1,9 @@
 """``bubblerob teleop``'s local drive: the keys step a simulated env (twist actions) at real time.
 
 A status line shows the commanded and measured speed, the nearest laser reading and the
-collisions so far; the env runs at its own control rate (20 Hz by default), paced to wall-clock
-time. An episode that ends starts the next one at rest.
+collisions so far, the next the pose (and a Nav env's goal: distance and bearing); the env runs
+at its own control rate (20 Hz by default), paced to wall-clock time. An episode that ends
+starts the next one at rest.
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from bubblerob_cli.teleop.keys import Clock, TeleopState, start_screen, status_line
+from bubblerob_cli.teleop.keys import Clock, TeleopState, goal_text, start_screen, status_line
 
 __all__ = ["run_teleop"]
 
@@ -61,6 +62,9 @@ def _drive(
         forward = float(info["body_twist"][0])
         screen.addstr(1, 0, status_line(state, forward, nearest, collisions)[:width])
         pose = f"pose x={info['x']:+.2f} y={info['y']:+.2f} yaw={info['yaw']:+.2f}"
+        if "goal" in obs:  # a Nav env: the goal as the robot sees it
+            pose += " | " + goal_text(*(float(v) for v in obs["goal"]))
+            pose += " (reached)" if info.get("is_success") else ""
         screen.addstr(2, 0, f"{pose} | episode {episode} | sim {info['sim_time']:.1f} s"[:width])
         screen.refresh()
         if terminated or truncated:

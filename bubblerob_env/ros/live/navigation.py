@@ -30,10 +30,12 @@ from bubblerob_env.ros.messages.distros import deserialize, serialize, typestore
 from bubblerob_env.ros.messages.topics import Topics, namespace_prefix
 from bubblerob_env.tasks.nav import BubbleRobNavEnv
 
-__all__ = ["GOAL_TYPE", "LiveNavigation"]
+__all__ = ["GOAL_INPUT", "GOAL_REACHED", "GOAL_TYPE", "LiveNavigation"]
 
 GOAL_TYPE = "geometry_msgs/msg/PoseStamped"
 """Type of ``/move_base_simple/goal``."""
+GOAL_INPUT, GOAL_REACHED = "/move_base_simple/goal", "/goal_reached"
+"""The goal's topic in and the arrival's out, under the robot's namespace."""
 
 Warn = Callable[[str, str, str], None]  # (topic, reason, detail)
 
@@ -51,8 +53,8 @@ class LiveNavigation:
         self.backend = backend
         prefix = namespace_prefix(topics.namespace)
         self.names = {
-            "goal_in": f"{prefix}/move_base_simple/goal",
-            "reached": f"{prefix}/goal_reached",
+            "goal_in": prefix + GOAL_INPUT,
+            "reached": prefix + GOAL_REACHED,
         }
         self.frames = {
             name: topics.frame_prefix + name for name in ("map", "odom")
