@@ -87,7 +87,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         choices=VEC_ENVS,
         default=DEFAULT_VEC_ENV,
         help="step the envs in this process (dummy), one subprocess each (subproc), or as one "
-        "native batch on threads (batched; BubbleRob-v0 only)",
+        "native batch on threads (batched; BubbleRob-v0 only); worlds: N_ENVS worlds of --robots "
+        "robots, one slot per robot, for one policy shared by all",
+    )
+    parser.add_argument(
+        "--robots",
+        type=int,
+        metavar="N",
+        help="robots in each world of --vec-env worlds (default: 8)",
     )
     parser.add_argument(
         "--torch-threads", type=int, default=DEFAULT_TORCH_THREADS, help="torch's CPU threads"
@@ -150,6 +157,13 @@ def run(args: argparse.Namespace, command: str, program: str) -> int:
 
     sweep = args.ray is not None or args.seeds is not None
     out = args.out or Path("runs") / f"{args.algo}-{args.env}-{'sweep' if sweep else args.seed}"
+    if args.robots is not None and (args.vec_env != "worlds" or args.robots < 1 or sweep):
+        print(
+            f"{program}: --robots takes an int >= 1, with --vec-env worlds, without --ray "
+            f"(got --robots {args.robots} --vec-env {args.vec_env})",
+            file=sys.stderr,
+        )
+        return 2
     try:
         overrides = _checked(args, out)
     except (ValueError, OSError) as error:
@@ -175,6 +189,7 @@ def run(args: argparse.Namespace, command: str, program: str) -> int:
         overrides=overrides,
         vec_env=args.vec_env,
         torch_threads=args.torch_threads,
+        robots=args.robots or 8,
     )
     print(f"saved {final} (best model: {out / 'best_model.zip'}, logs: {out / 'tb'})")
     return 0

@@ -3,7 +3,9 @@
 ``vec_env`` says how the ``n_envs`` training envs are stepped: ``dummy`` (in this process, the
 default: with small, fast envs on a 2-core machine the inter-process round trips of
 ``SubprocVecEnv`` cost more than stepping them here), ``subproc`` (one subprocess each) or
-``batched`` (:class:`train.sb3_vec.BubbleRobSB3VecEnv`, the same episodes). The evaluation env
+``batched`` (:class:`train.sb3_vec.BubbleRobSB3VecEnv`, the same episodes) or ``worlds``
+(:class:`train.worlds_vec.WorldsSB3VecEnv`: ``n_envs`` worlds of ``robots`` robots, a slot per
+robot, for one policy shared by all; evaluated on single-robot episodes). The evaluation env
 has one env per validation episode (``train/validation.py``), seeded from the first validation
 seed, and the same wrapper chain as training's.
 """
@@ -20,19 +22,27 @@ from train.zoo import wrapper_class
 __all__ = [
     "DEFAULT_VEC_ENV",
     "VEC_ENVS",
+    "batch_wrapped",
     "batched_envs",
     "native_batch",
     "non_image_keys",
+    "single_robot_eval_envs",
     "training_envs",
+    "worlds_envs",
 ]
 
-VEC_ENVS = ("dummy", "subproc", "batched")
+VEC_ENVS = ("dummy", "subproc", "batched", "worlds")
 DEFAULT_VEC_ENV = "dummy"
 """Step the envs in the training process: on 2 cores, faster than subprocesses for this env."""
 
 
 def training_envs(
-    env_id: str, config: dict[str, Any], seed: int, eval_episodes: int, vec_env: str
+    env_id: str,
+    config: dict[str, Any],
+    seed: int,
+    eval_episodes: int,
+    vec_env: str,
+    robots: int = 8,
 ) -> tuple[Any, Any]:
     """The training envs and the evaluation env of ``config`` (rl-zoo's hyperparameters).
 
@@ -41,7 +51,7 @@ def training_envs(
     """
     from stable_baselines3.common.vec_env import VecFrameStack, VecNormalize
 
-    envs, eval_env = _unwrapped_envs(env_id, config, seed, eval_episodes, vec_env)
+    envs, eval_env = _unwrapped_envs(env_id, config, seed, eval_episodes, vec_env, robots)
     if config.get("normalize", False):
         # rl-zoo's "normalize: true": running mean/std of observations (and returns for training).
         keys = non_image_keys(envs.observation_space)
@@ -55,7 +65,12 @@ def training_envs(
 
 
 def _unwrapped_envs(
-    env_id: str, config: dict[str, Any], seed: int, eval_episodes: int, vec_env: str
+    env_id: str,
+    config: dict[str, Any],
+    seed: int,
+    eval_episodes: int,
+    vec_env: str,
+    robots: int = 8,
 ) -> tuple[Any, Any]:
     """The training and evaluation envs with ``env_wrapper``, before normalisation."""
     from stable_baselines3.common.env_util import make_vec_env
@@ -72,6 +87,10 @@ def _unwrapped_envs(
         # both chains in step.
         eval_env = batched_envs(env_id, eval_episodes, VALIDATION.start, env_kwargs, spec)
         return envs, eval_env
+    if vec_env == "worlds":  # the shared policy is evaluated driving one robot
+        spec = config.get("env_wrapper")
+        envs = worlds_envs(env_id, count, robots, seed, env_kwargs, spec)
+        return envs, single_robot_eval_envs(env_id, eval_episodes, env_kwargs, spec)
     envs = make_vec_env(
         env_id,
         n_envs=count,
@@ -143,6 +162,67 @@ def native_batch(
         if scale is not None:  # the residual acts on the raw batch, below the observation ones
             envs = VecResidualOnLaser(envs, builtin_policy("laser", probe), scale)
         return VecObservationWrapper.from_env_wrapper(envs, wrap, probe)
+    except ValueError:
+        envs.close()
+        raise
+    finally:
+        probe.close()
+
+
+def worlds_envs(
+    env_id: str,
+    num_worlds: int,
+    robots: int,
+    seed: int,
+    env_kwargs: dict[str, Any],
+    env_wrapper: Any = None,
+) -> Any:
+    """``--vec-env worlds``: ``num_worlds`` worlds of ``robots`` robots, one slot per robot.
+
+    World ``w`` is seeded ``seed + w``; ``env_wrapper`` is applied as ``--vec-env batched``
+    applies it (observation wrappers on the whole batch, a residual on the gap follower below).
+    """
+    import gymnasium as gym
+
+    from train.worlds_vec import WorldsSB3VecEnv
+
+    spec = gym.spec(env_id)
+    if spec.entry_point != "bubblerob_env.env:BubbleRobEnv":
+        raise ValueError(f"--vec-env worlds steps BubbleRob-v0 or PioneerP3DX-v0, not {env_id!r}")
+    envs: Any = WorldsSB3VecEnv(num_worlds, robots, **{**spec.kwargs, **env_kwargs})
+    envs.seed(seed)
+    return batch_wrapped(envs, env_id, env_kwargs, env_wrapper)
+
+
+def single_robot_eval_envs(
+    env_id: str, episodes: int, env_kwargs: dict[str, Any], env_wrapper: Any = None
+) -> Any:
+    """``--vec-env worlds``' evaluation: single-robot validation episodes, wrapped as training.
+
+    The same wrapper chain as the worlds' (VecNormalize syncs its statistics by walking both).
+    """
+    from stable_baselines3.common.env_util import make_vec_env
+
+    envs = make_vec_env(env_id, n_envs=episodes, seed=VALIDATION.start, env_kwargs=env_kwargs)
+    return batch_wrapped(envs, env_id, env_kwargs, env_wrapper)
+
+
+def batch_wrapped(envs: Any, env_id: str, env_kwargs: dict[str, Any], env_wrapper: Any) -> Any:
+    """``envs`` in rl-zoo's ``env_wrapper`` applied to the whole batch, as ``batched`` does."""
+    import gymnasium as gym
+
+    from train.sb3_vec import VecObservationWrapper
+    from train.vec_residual import VecResidualOnLaser
+
+    scale = residual_scale(env_wrapper)
+    wrap = wrapper_class(env_wrapper if scale is None else without_residual(env_wrapper))
+    if wrap is None and scale is None:
+        return envs
+    probe = gym.make(env_id, **env_kwargs)
+    try:
+        if scale is not None:  # the residual acts on the raw batch, below the observation ones
+            envs = VecResidualOnLaser(envs, builtin_policy("laser", probe), scale)
+        return envs if wrap is None else VecObservationWrapper.from_env_wrapper(envs, wrap, probe)
     except ValueError:
         envs.close()
         raise

@@ -81,12 +81,14 @@ def train(
     overrides: dict[str, Any] | None = None,
     vec_env: str = DEFAULT_VEC_ENV,
     torch_threads: int = DEFAULT_TORCH_THREADS,
+    robots: int = 8,
 ) -> Path:
     """Train and save; returns the path of the final model.
 
     ``overrides`` replace hyperparameters from the YAML (``--set key=value`` on the command line).
     ``vec_env`` (``dummy``, ``subproc`` or ``batched``) says how the ``n_envs`` training envs are
-    stepped; ``batched`` is :class:`train.sb3_vec.BubbleRobSB3VecEnv`, same episodes.
+    stepped; ``batched`` is :class:`train.sb3_vec.BubbleRobSB3VecEnv`, same episodes; ``worlds``
+    is :class:`train.worlds_vec.WorldsSB3VecEnv`, ``n_envs`` worlds of ``robots`` robots.
     ``progress_bar`` is SB3's own (tqdm/rich), the only thing training shows.
     """
     import torch
@@ -94,10 +96,12 @@ def train(
     if vec_env not in VEC_ENVS:
         raise ValueError(f"vec_env must be one of {list(VEC_ENVS)}, got {vec_env!r}")
     config = run_config(algo, env_id, timesteps, n_envs, seed, overrides)
-    settings = {"vec_env": vec_env, "torch_threads": torch_threads}
+    settings: dict[str, Any] = {"vec_env": vec_env, "torch_threads": torch_threads}
+    if vec_env == "worlds":
+        settings["robots"] = robots
     write_run_record(out, env_id, config, command or default_command(algo, env_id, out), settings)
     torch.set_num_threads(int(torch_threads))
-    envs, eval_env = training_envs(env_id, config, seed, eval_episodes, vec_env)
+    envs, eval_env = training_envs(env_id, config, seed, eval_episodes, vec_env, robots)
     model = _model(algo, config, envs, seed, out)
     callbacks, eval_env = _callbacks(model, config, eval_env, eval_freq, eval_episodes, out)
     start = time.perf_counter()
@@ -144,7 +148,7 @@ def _callbacks(
     from stable_baselines3.common.callbacks import CheckpointCallback
     from stable_baselines3.common.vec_env import VecTransposeImage, is_vecenv_wrapped
 
-    count = int(config["n_envs"])
+    count = int(model.get_env().num_envs)  # slots: n_envs, or n_envs x robots (worlds)
     if is_vecenv_wrapped(model.get_env(), VecTransposeImage):
         # SB3 transposes image observations (the camera) for the policy: the eval env alike.
         eval_env = VecTransposeImage(eval_env)
