@@ -17,6 +17,7 @@ right wherever the body moves; only a size change has to be written into it.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -31,6 +32,7 @@ __all__ = [
     "DEFAULT_SCENE",
     "ROBOT_RADIUS",
     "ArenaLayout",
+    "CrowdedArenaWarning",
     "Obstacle",
     "OBSTACLE_PALETTE",
     "ObstacleSlots",
@@ -254,8 +256,10 @@ def sample_layout(
     robot's bounding circle and the walls and every obstacle. Obstacles keep a gap of at least one
     robot diameter from each other and from the walls, so every obstacle can be driven around. An
     obstacle that finds no room after a bounded number of tries is dropped, so the result depends
-    only on the generator's state and a crowded arena never fails to reset. ``robot_radius``:
-    the robot's bounding circle about base_link (its description's ``radius``).
+    only on the generator's state and a crowded arena never fails to reset; a drop is said in a
+    :class:`CrowdedArenaWarning` (an obstacle too large for any arena is refused earlier, by the
+    env's config). ``robot_radius``: the robot's bounding circle about base_link (its
+    description's ``radius``).
     """
     half = arena_size / 2.0
     keep_out = robot_radius + start_clearance
@@ -291,7 +295,19 @@ def sample_layout(
             if clear_of_start and all(_distance(candidate, other) >= gap for other in obstacles):
                 obstacles.append(candidate)
                 break
+    if len(obstacles) < count:
+        warnings.warn(
+            f"the arena had room for {len(obstacles)} of the {count} obstacles drawn "
+            f"(arena_size {arena_size:g} m, obstacle_size {obstacle_size}): fewer "
+            "num_obstacles, smaller obstacles or a larger arena place them all",
+            CrowdedArenaWarning,
+            stacklevel=2,
+        )
     return ArenaLayout(tuple(obstacles), start_pose)
+
+
+class CrowdedArenaWarning(UserWarning):
+    """A layout holds fewer obstacles than were drawn: the arena had no room for the others."""
 
 
 def colour_obstacles(rng: np.random.Generator, layout: ArenaLayout) -> ArenaLayout:

@@ -13,6 +13,7 @@ the kernel's settings (:mod:`bubblerob_env.core.batch`) all read these values.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -75,7 +76,7 @@ ARGUMENTS: dict[str, Any] = {
     "proximity_range_max": None,
     "proximity_trigger_distance": None,
     "proximity_radiation_type": "ULTRASOUND",
-    "camera": False,
+    "camera": None,
     "camera_width": None,
     "camera_height": None,
     "camera_shadows": False,
@@ -99,6 +100,34 @@ ARGUMENTS: dict[str, Any] = {
 }
 """Every keyword argument of ``BubbleRobEnv`` and its default, in the signature's order (a
 ``None`` means the robot's value, or for ``xml_file`` the robot's scene)."""
+
+
+def check_asked_world(camera: object, args: Mapping[str, Any], robot: RobotDescription) -> None:
+    """Refuse what the env could take and then not honour (``ValueError``, one line).
+
+    ``camera=False`` given (``camera``: as given, ``None`` if not) beside a camera size (a size
+    alone turns the camera on); an
+    ``obstacle_size`` whose largest box or cylinder cannot be placed in the arena at all: it would
+    be dropped from every layout (:func:`~bubblerob_env.arena.sample_layout` keeps a robot
+    diameter between obstacles and walls).
+    """
+    sized = [name for name in ("camera_width", "camera_height") if args[name] is not None]
+    if camera is False and sized:
+        raise ValueError(
+            f"camera=False contradicts {sized[0]}={args[sized[0]]!r} (a camera size turns the "
+            "camera on): drop one of them"
+        )
+    most = int(args["num_obstacles"][1])
+    biggest = float(args["obstacle_size"][1])
+    room = float(args["arena_size"]) / 2.0 - 2.0 * robot.radius  # sample_layout's gap to walls
+    if most > 0 and math.hypot(biggest, biggest) >= room:
+        allowed = room / math.sqrt(2.0)
+        raise ValueError(
+            f"obstacle_size {tuple(args['obstacle_size'])!r}: a box of half side {biggest:g} m "
+            f"cannot be placed in arena_size {float(args['arena_size']):g} m with the robot's "
+            f"gap to the walls: the largest must be < {max(allowed, 0.0):.3f} m (or "
+            "num_obstacles (0, 0))"
+        )
 
 
 @dataclass(frozen=True)
@@ -225,9 +254,12 @@ class EnvConfig:
         if unknown:
             raise unexpected_kwargs_error("BubbleRobEnv.__init__", unknown, list(ARGUMENTS))
         given = {**ARGUMENTS, **kwargs}
+        camera_given = given["camera"]  # None: not given (a camera size alone turns it on)
+        given["camera"] = False if camera_given is None else camera_given
         robot = robot_description(given.pop("robot"))
         args = robot.fill_defaults(given)
         check_env_arguments(args, ACTION_TYPES, RADIATION_TYPES, RENDER_MODES, robot)
+        check_asked_world(camera_given, args, robot)
         check_choice("laser_backend", args["laser_backend"], LASER_BACKENDS)
         check_choice("obs_mode", args["obs_mode"], OBS_MODES)
         odometry_noise = check_bounded("odometry_noise", args["odometry_noise"], 0.0, 1.0)

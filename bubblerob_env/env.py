@@ -210,7 +210,7 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
         proximity_range_max: float | None = None,
         proximity_trigger_distance: float | None = None,
         proximity_radiation_type: str = "ULTRASOUND",
-        camera: bool = False,
+        camera: bool | None = None,
         camera_width: int | None = None,
         camera_height: int | None = None,
         camera_shadows: bool = False,

@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bubblerob_env import names
-from bubblerob_env.arena import ArenaLayout
+from bubblerob_env.arena import ArenaLayout, Obstacle
 
 __all__ = [
     "DEFAULT_RESOLUTION",
@@ -84,7 +84,9 @@ def ground_truth_grid(
 ) -> Grid:
     """The arena's walls and ``layout``'s obstacle footprints; a cell is occupied if its centre is.
 
-    The grid covers the inside square and the walls around it (``wall_thickness`` m each).
+    The grid covers the inside square and the walls around it (``wall_thickness`` m each). No
+    obstacle or wall is ever lost: one whose footprint holds no cell centre (an obstacle smaller
+    than a cell, walls thinner than half a cell) occupies every cell it touches instead.
     """
     resolution = check_resolution(resolution)
     outer = arena_size / 2.0 + wall_thickness
@@ -93,19 +95,47 @@ def ground_truth_grid(
     grid = Grid(np.zeros((cells, cells), dtype=np.int8), origin, resolution)
     x, y = grid.centres
     half = arena_size / 2.0
-    occupied = (np.abs(x) > half) | (np.abs(y) > half)
+    edge = resolution / 2.0  # from a cell's centre to its sides
+    occupied = np.zeros(grid.data.shape, dtype=bool)
+    for axis, side in ((x, 1.0), (x, -1.0), (y, 1.0), (y, -1.0)):
+        wall = side * axis > half
+        occupied |= wall if wall.any() else side * axis + edge > half
     for obstacle in layout.obstacles:
-        dx, dy = x - obstacle.x, y - obstacle.y
-        if obstacle.kind == "cylinder":
-            occupied |= np.hypot(dx, dy) <= obstacle.size[0]
-        else:
-            c, s = math.cos(obstacle.yaw), math.sin(obstacle.yaw)
-            local_x, local_y = c * dx + s * dy, -s * dx + c * dy
-            occupied |= (np.abs(local_x) <= obstacle.size[0]) & (
-                np.abs(local_y) <= obstacle.size[1]
-            )
+        inside = _footprint(obstacle, x, y)
+        occupied |= inside if inside.any() else _touched(obstacle, grid)
     grid.data[occupied] = OCCUPIED
     return grid
+
+
+def _footprint(obstacle: Obstacle, x: NDArray[np.float64], y: NDArray[np.float64]) -> Any:
+    """Whether each point ``(x, y)`` lies in ``obstacle``'s footprint (its edge included)."""
+    dx, dy = x - obstacle.x, y - obstacle.y
+    if obstacle.kind == "cylinder":
+        return np.hypot(dx, dy) <= obstacle.size[0]
+    c, s = math.cos(obstacle.yaw), math.sin(obstacle.yaw)
+    local_x, local_y = c * dx + s * dy, -s * dx + c * dy
+    return (np.abs(local_x) <= obstacle.size[0]) & (np.abs(local_y) <= obstacle.size[1])
+
+
+def _touched(obstacle: Obstacle, grid: Grid) -> NDArray[np.bool_]:
+    """The cells holding points of a footprint smaller than a cell (its centre among them).
+
+    Points on a lattice at a fifth of the footprint's smallest extent, clipped to the footprint:
+    every cell the footprint covers a fifth of an extent of is found, and its own centre's always.
+    """
+    reach = obstacle.bounding_radius
+    step = min(obstacle.size) / 5.0
+    offsets = np.arange(-reach, reach + step / 2.0, step)
+    px, py = np.meshgrid(obstacle.x + offsets, obstacle.y + offsets)
+    keep = _footprint(obstacle, px, py)
+    xs = np.append(px[keep], obstacle.x)
+    ys = np.append(py[keep], obstacle.y)
+    rows, cols = grid.data.shape
+    col = np.clip(np.floor((xs - grid.origin[0]) / grid.resolution).astype(int), 0, cols - 1)
+    row = np.clip(np.floor((ys - grid.origin[1]) / grid.resolution).astype(int), 0, rows - 1)
+    touched = np.zeros(grid.data.shape, dtype=bool)
+    touched[row, col] = True
+    return touched
 
 
 def has_arena(env: Any) -> bool:

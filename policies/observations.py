@@ -33,6 +33,7 @@ __all__ = [
     "bubblerob_base",
     "check_env",
     "check_exact_keys",
+    "check_model_actions",
     "check_model_spaces",
     "check_observations",
     "dict_view",
@@ -138,6 +139,47 @@ def check_model_spaces(
                 f"policy {name} takes {key} of shape {trained_space.shape}, "
                 f"but this env gives {space[key].shape}{pooled}"
             )
+        if _bounds(trained_space) != _bounds(space[key]):
+            raise PolicyEnvMismatchError(
+                f"policy {name} takes {key} in {_bounds(trained_space)}, but this env gives it "
+                f"in {_bounds(space[key])}: it was trained for another robot or env kwargs"
+            )
+
+
+def _bounds(space: gym.Space[Any]) -> Any:
+    """A ``Box``'s range as ``[low, high]`` (each rounded, one number where all agree), else None.
+
+    Bounds only: pooling shortens a scan but keeps its range, and SB3 stores them as float32.
+    """
+    if not isinstance(space, spaces.Box):
+        return None
+    low, high = (
+        np.unique(np.round(np.asarray(b, dtype=np.float64), 4)) for b in (space.low, space.high)
+    )
+    show = [v.tolist() if len(v) > 1 else float(v[0]) for v in (low, high)]
+    return show
+
+
+def check_model_actions(name: str, trained: gym.Space[Any], env: gym.Env[Any, Any]) -> None:
+    """A model's action space against the env's: shape and bounds (wheels or twist, the robot).
+
+    A policy trained on twist actions (m/s, rad/s) would drive a wheels env (rad/s per wheel)
+    with numbers that mean something else, and another robot's limits clip differently.
+    """
+    given = env.action_space
+    if trained.shape != given.shape or _action_bounds(trained) != _action_bounds(given):
+        raise PolicyEnvMismatchError(
+            f"policy {name} acts in {_shown(trained)} bounded by {_action_bounds(trained)}, but "
+            f"this env takes {_shown(given)} bounded by {_action_bounds(given)} "
+            f"(action_type {getattr(env.unwrapped, 'action_type', '?')!r}): it was trained for "
+            "another action_type, robot or speed limits"
+        )
+
+
+def _action_bounds(space: gym.Space[Any]) -> Any:
+    if not isinstance(space, spaces.Box):
+        return None
+    return [np.round(np.asarray(b, dtype=np.float64), 4).tolist() for b in (space.low, space.high)]
 
 
 def dict_view(env: gym.Env[Any, Any], name: str) -> tuple[spaces.Dict, dict[str, slice] | None]:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import pickle
+import warnings
 import zipfile
 from pathlib import Path
 from typing import Any
@@ -23,6 +24,7 @@ from policies.base import Policy
 from policies.observations import (
     ObservationAdapter,
     check_env,
+    check_model_actions,
     check_model_spaces,
     env_signature,
 )
@@ -35,7 +37,14 @@ from policies.runs import (
     residual_scale,
 )
 
-__all__ = ["NormalizedPolicy", "PooledPolicy", "SB3Policy", "load_sb3", "sb3_algorithm"]
+__all__ = [
+    "NormalizedPolicy",
+    "PooledPolicy",
+    "SB3Policy",
+    "UncheckedPolicyWarning",
+    "load_sb3",
+    "sb3_algorithm",
+]
 
 
 class SB3Policy:
@@ -137,13 +146,26 @@ def load_sb3(
         )
     model: Any = (sac if sb3_algorithm(path) == "SAC" else ppo).load(path, device="cpu")
     pooling = recorded_pooling(path)
+    scale = residual_scale(config.get("env_wrapper"))
+    if not config and env is not None:
+        warnings.warn(
+            f"{path} has no config.yml beside it: its observation and action spaces are checked, "
+            "but not its action_type (wheels and twist share one action space)",
+            UncheckedPolicyWarning,
+            stacklevel=2,
+        )
     if env is not None and space is not None:
         _check_trained_env(path, model, env, name or str(path), space, pooling)
+        if scale is None:  # a residual's model acts in the residual's own space
+            check_model_actions(name or str(path), model.action_space, env)
     policy: Policy = _normalized(model, normalization_path(path))
     if pooling:
         policy = PooledPolicy(policy, pooling)
-    scale = residual_scale(config.get("env_wrapper"))
     return policy if scale is None else on_gap_follower(policy, env, space, scale)
+
+
+class UncheckedPolicyWarning(UserWarning):
+    """A policy file says too little about its env for every check (a bare SB3 zip)."""
 
 
 def _check_trained_env(
