@@ -85,9 +85,11 @@ def run_demo(
     backend = None
     if foxglove is not None:
         from bubblerob_env.ros import RosLivePublisher
+        from bubblerob_env.ros.live.foxglove_robot import publish_robot_model
 
         backend = serve("demo", foxglove)
         env = RosLivePublisher(env, backend, metadata={"policy": str(policy_name)})
+        publish_robot_model(backend, env, env.topics)
     policy = load_policy(policy_name, env)
     bag = out / f"bubblerob_demo_{Path(policy_name).stem}"
     command = shlex.join(["bubblerob", *sys.argv[1:]])

@@ -107,6 +107,7 @@ def evaluate_live(args: argparse.Namespace) -> list[EvalResult]:
     import gymnasium as gym
     from tqdm import tqdm
 
+    from bubblerob_env.ros.live.foxglove_robot import publish_robot_model
     from bubblerob_env.ros.live.wrapper import RosLivePublisher
     from policies.evaluation import run_episode, summarize
     from policies.loading import load_policy
@@ -121,6 +122,7 @@ def evaluate_live(args: argparse.Namespace) -> list[EvalResult]:
                 start_time=start,
                 metadata={"policy": str(name)},
             )
+            publish_robot_model(backend, env, env.topics)
             policy = load_policy(name, env)
             seeds = range(args.seed, args.seed + args.episodes)
             bar: Any = tqdm(seeds, desc=f"evaluate {name}", unit="episode")

@@ -297,18 +297,36 @@ def _start_backend(args: argparse.Namespace, env: Any) -> LiveBackend:
         fail("node", str(error))
 
 
+def _driver(name: str, env: Any) -> Any:
+    """``--policy``: ``driver(obs, episode_start) -> action``; one line and exit 2 if unusable."""
+    from policies.loading import load_policy
+
+    try:
+        policy = load_policy(name, env)
+    except (ValueError, OSError) as error:
+        env.close()
+        fail("node", f"--policy {name}: {error}")
+
+    def drive(obs: Any, episode_start: bool) -> Any:
+        if episode_start:
+            policy.reset()
+        return policy.predict(obs, deterministic=True)[0]
+
+    return drive
+
+
 def _log_line(level: str, text: str) -> None:
     """The Foxglove server's log: one line on stderr (ROS nodes log to rosout)."""
     print(f"bubblerob node: {'warning: ' if level == 'warn' else ''}{text}", file=sys.stderr)
 
 
 def _serve_foxglove(backend: LiveBackend, node: SimNode, namespace: str) -> str:
-    """Add the simulation services to the Foxglove server; where clients connect to it."""
+    """Add the services and the robot's body to the Foxglove server; where clients connect."""
     from bubblerob_env.ros.live.foxglove import SUBPROTOCOL, FoxgloveBackend
-    from bubblerob_env.ros.live.foxglove_services import add_simulation_services
+    from bubblerob_env.ros.live.foxglove_services import serve_simulation
 
     assert isinstance(backend, FoxgloveBackend)
-    add_simulation_services(backend, node, namespace)
+    serve_simulation(backend, node, namespace)
     return f"Foxglove at {backend.url} (WebSocket subprotocol {SUBPROTOCOL})"
 
 

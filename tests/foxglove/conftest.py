@@ -65,7 +65,7 @@ def make_env(**kwargs: Any) -> gym.Env[Any, Any]:
 def serve() -> Iterator[Any]:
     """``serve(sync=..., rate_factor=...)``: start a node served to Foxglove; stopped after."""
     from bubblerob_env.ros.live.foxglove import FoxgloveBackend
-    from bubblerob_env.ros.live.foxglove_services import add_simulation_services
+    from bubblerob_env.ros.live.foxglove_services import serve_simulation
     from bubblerob_env.ros.live.node import NodeConfig, SimNode
 
     started: list[tuple[Served, threading.Thread]] = []
@@ -75,7 +75,7 @@ def serve() -> Iterator[Any]:
         backend = FoxgloveBackend(port=0, logger=lambda level, text: logs.append((level, text)))
         settings = NodeConfig(seed=SEED, start_time=START_NS / 1e9, **config)
         node = SimNode(make_env(), backend, config=settings)
-        add_simulation_services(backend, node)
+        serve_simulation(backend, node)
         thread = threading.Thread(target=node.run, kwargs={"duration": 60.0}, daemon=True)
         thread.start()
         served = Served(backend.url, node, backend, logs)

@@ -6,8 +6,8 @@ and "Export to file..." writes (``configById``, ``layout``). ``python tests/foxg
 writes the file again; ``test_foxglove_layout.py`` checks that it is what this script writes and
 that every topic it names is one the node publishes (or, for the Teleop panel, reads).
 
-- 3D: the map, the laser scan (coloured by range), the odometry pose and the tf frames, seen from
-  above in the ``map`` frame;
+- 3D: the map, the laser scan (coloured by range), the robot's body (a cylinder on base_link),
+  the odometry pose and the tf frames, seen from above in the ``map`` frame;
 - Image: the camera (``bubblerob node --camera``);
 - Plot: the robot's forward and turning speed (``/odom``) and the reward;
 - Teleop: arrows publish ``geometry_msgs/Twist`` on ``/cmd_vel`` (0.2 m/s, 1 rad/s), 10 per second.
@@ -45,6 +45,7 @@ def panel_configs() -> dict[str, Any]:
         topics={
             "/map": fl.BaseRendererRosOccupancyGridTopicSettings(visible=True, alpha=0.8),
             "/scan": scan,
+            "/bubblerob/robot_model": fl.BaseRendererRosMarkerTopicSettings(visible=True),
             "/odom": fl.BaseRendererPoseTopicSettings(
                 visible=True, type="arrow", arrow_scale=(0.3, 0.05, 0.05)
             ),

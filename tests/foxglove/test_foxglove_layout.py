@@ -6,12 +6,14 @@ import json
 
 from layout import LAYOUT_FILE, layout_text
 
+from bubblerob_env.ros.live.foxglove_robot import MARKER_TYPE, robot_model_topic
 from bubblerob_env.ros.messages.topics import MSGTYPES, Topics
 
 PANEL_TYPES = {
     "/map": "nav_msgs/msg/OccupancyGrid",
     "/scan": "sensor_msgs/msg/LaserScan",
     "/odom": "nav_msgs/msg/Odometry",
+    "/bubblerob/robot_model": "visualization_msgs/msg/Marker",
     "/reward": "std_msgs/msg/Float64",
     "/camera/image_raw": "sensor_msgs/msg/Image",
     "/camera/camera_info": "sensor_msgs/msg/CameraInfo",
@@ -32,6 +34,7 @@ def test_the_layout_names_the_nodes_topics_with_the_types_its_panels_show() -> N
     named |= {image["imageTopic"], image["calibrationTopic"], configs["Teleop!bubblerob"]["topic"]}
     assert named == set(PANEL_TYPES)
     node_types = {name: MSGTYPES[key] for key, name in Topics().resolved().items()}
+    node_types[robot_model_topic(Topics())] = MARKER_TYPE
     assert {topic: node_types[topic] for topic in named} == PANEL_TYPES
     # Every panel is placed in the layout tree, once.
     placed, stack = [], [saved["layout"]]

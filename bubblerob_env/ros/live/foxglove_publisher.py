@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 
 from bubblerob_env.mapping import DEFAULT_RESOLUTION
 from bubblerob_env.ros.live.foxglove import DEFAULT_HOST, DEFAULT_PORT, FoxgloveBackend
+from bubblerob_env.ros.live.foxglove_robot import publish_robot_model
 from bubblerob_env.ros.live.wrapper import RosLivePublisher
 from bubblerob_env.ros.messages.topics import Topics
 from bubblerob_env.ros.sink import Sink
@@ -96,6 +97,7 @@ class FoxglovePublisher(RosLivePublisher):
                 start_time=start_time,
                 map_resolution=map_resolution,
             )
+            publish_robot_model(backend, env, self.topics)
         except BaseException:
             backend.shutdown()
             raise

@@ -19,10 +19,11 @@ when it happened.
 from __future__ import annotations
 
 from bubblerob_env.ros.live.foxglove import FoxgloveBackend
+from bubblerob_env.ros.live.foxglove_robot import publish_robot_model
 from bubblerob_env.ros.live.node import PAUSED, SimNode
 from bubblerob_env.ros.messages.topics import namespace_prefix
 
-__all__ = ["SERVICE_NAMES", "add_simulation_services"]
+__all__ = ["SERVICE_NAMES", "add_simulation_services", "serve_simulation"]
 
 SERVICE_NAMES = ("reset_simulation", "pause_simulation", "resume_simulation", "step_simulation")
 """The services, under the node's namespace."""
@@ -59,3 +60,12 @@ def add_simulation_services(backend: FoxgloveBackend, node: SimNode, namespace: 
     handlers = (reset, pause, resume, step)
     for name, handler in zip(SERVICE_NAMES, handlers, strict=True):
         backend.add_trigger_service(f"{prefix}/{name}", handler)
+
+
+def serve_simulation(backend: FoxgloveBackend, node: SimNode, namespace: str = "") -> None:
+    """Add what a Foxglove server offers beyond ``node``'s topics: services, the robot's body.
+
+    The body: :func:`~bubblerob_env.ros.live.foxglove_robot.publish_robot_model`.
+    """
+    add_simulation_services(backend, node, namespace)
+    publish_robot_model(backend, node.publisher.env, node.publisher.topics)
