@@ -91,7 +91,7 @@ class LiveNavigation:
             allowed = " or ".join(repr(f) for f in self.frames.values())
             self._warn(
                 topic,
-                "unknown frame",
+                "wrong-frame",
                 f"frame_id {frame!r} (from {sender}): goals are taken in {allowed}",
             )
             return

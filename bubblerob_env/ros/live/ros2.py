@@ -189,4 +189,8 @@ class Ros2Backend(LiveBackend):
     def log(self, level: str, text: str) -> None:
         """See :meth:`LiveBackend.log`."""
         logger = self._node.get_logger()
-        (logger.warning if level == "warn" else logger.info)(text)
+        # rclpy remembers each call site's severity and refuses another: one call per level.
+        if level == "warn":
+            logger.warning(text)
+        else:
+            logger.info(text)
