@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from bubblerob_cli.errors import report
+from bubblerob_cli.outputs import Output, OutputError, check_outputs
 from bubblerob_env.png import write_png
 from bubblerob_env.ros import localize
 from bubblerob_env.ros.localize_bag import LocalizeBagError, read_bag_episodes
@@ -65,22 +66,14 @@ def _text(summary: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def _check_out(args: argparse.Namespace) -> Path:
-    out = Path(args.out) if args.out is not None else localize.default_png(args.bag)
-    if out.is_dir():
-        raise LocalizeBagError(f"--out {out} is a directory: name the PNG file to write")
-    if out.suffix.lower() != ".png":
-        raise LocalizeBagError(f"--out {out}: the picture is a PNG, name a .png file")
-    return out
-
-
 def _run(args: argparse.Namespace) -> int:
     try:
         if not 0 <= args.seed <= 2**63 - 1:
             raise LocalizeBagError(f"--seed must be an int from 0 to {2**63 - 1}, got {args.seed}")
-        out = _check_out(args)
+        out = Path(args.out) if args.out is not None else localize.default_png(args.bag)
+        check_outputs([Output("--out", out, (".png",))], inputs=[args.bag])
         bag = read_bag_episodes(args.bag)
-    except (OSError, LocalizeBagError) as error:
+    except (OSError, LocalizeBagError, OutputError) as error:
         report("localize", str(error))
         return 2
     results = localize.localize_bag(bag, args.global_start, args.seed)

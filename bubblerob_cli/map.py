@@ -8,6 +8,7 @@ from typing import Any
 
 from bubblerob_cli.args import env_kwargs_json
 from bubblerob_cli.errors import report
+from bubblerob_cli.outputs import Output, check_outputs
 from bubblerob_env.mapping import DEFAULT_RESOLUTION, check_resolution
 from bubblerob_env.ros.map_bag import MapError, map_bag, map_png
 
@@ -48,9 +49,8 @@ def _run(args: argparse.Namespace) -> int:
         resolution = check_resolution(args.resolution)
         if args.episode < 0:
             raise MapError(f"--episode must be an episode index >= 0, got {args.episode}")
-        if Path(args.out).is_dir():
-            raise MapError(f"--out {args.out} is a directory: name the PNG file to write")
-    except ValueError as error:
+        check_outputs([Output("--out", Path(args.out), (".png",))], inputs=[args.bag])
+    except ValueError as error:  # OutputError too
         report("map", str(error))
         return 2
     try:
