@@ -11,6 +11,7 @@
 //   publish {topic, json|text|base64, repeat?} send on an advertised client channel
 //   call {service, encoding, base64?|text?} call a service and wait for its answer
 //   waitFor {topic, count, timeoutMs?}     until `count` messages of `topic` arrived
+//   getParameters {names}; setParameters {parameters}  the values the server answers with
 //   sleep {ms}; mark {}; abortMidMessage {} (send half a frame, then drop the connection)
 // The subprotocol must be foxglove.sdk.v1 for foxglove-sdk's server; with another one the server
 // answers HTTP <status>, which is printed as {"httpStatus": status}.
@@ -65,6 +66,14 @@ async function run(client, ws) {
       const { id } = servicesByName.get(step.service);
       client.sendServiceCallRequest({ serviceId: id, callId, encoding: step.encoding, data: payload(step) });
       await until(() => serviceAnswered, 5000, `an answer from ${step.service}`);
+    } else if (step.op === "getParameters") {
+      out.parameters = undefined;
+      client.getParameters(step.names ?? [], "get");
+      await until(() => out.parameters !== undefined, 5000, "the parameters");
+    } else if (step.op === "setParameters") {
+      out.parameters = undefined;
+      client.setParameters(step.parameters, "set");
+      await until(() => out.parameters !== undefined, 5000, "the parameters after a set");
     } else if (step.op === "waitFor") {
       await until(() => count(step.topic) >= step.count, step.timeoutMs ?? 10000, `${step.count} on ${step.topic}`);
     } else if (step.op === "sleep") {
@@ -106,6 +115,7 @@ client.on("message", ({ subscriptionId, timestamp, data }) => {
   out.messages.push({ topic: topicOfSubscription.get(subscriptionId), t: String(timestamp), data: b64(data) });
 });
 client.on("time", ({ timestamp }) => (out.time = String(timestamp)));
+client.on("parameterValues", ({ parameters }) => (out.parameters = parameters));
 client.on("serviceCallResponse", (response) => {
   out.responses.push({ encoding: response.encoding, data: b64(response.data) });
   serviceAnswered = true;

@@ -137,8 +137,13 @@ def test_the_command_says_where_and_how_to_connect_and_serves_its_services(tmp_p
                 {"op": "waitFor", "topic": "/simulationState", "count": 2},
                 {"op": "call", "service": "/step_simulation", "encoding": "cdr", "base64": EMPTY},
                 {"op": "waitFor", "topic": "/simulationState", "count": 3},
+                {"op": "setParameters", "parameters": [{"name": "/bubblerob.seed", "value": 9}]},
+                {"op": "getParameters", "names": []},
             ],
         )  # fmt: skip
+        parameters = {p["name"]: p["value"] for p in report["parameters"]}
+        assert parameters["/bubblerob.env"] == "BubbleRob-v0"
+        assert (parameters["/bubblerob.seed"], parameters["/bubblerob.rate_factor"]) == (0, 2.0)
         names = {s["name"]: s["type"] for s in report["services"]}
         assert names == dict.fromkeys(
             ["/reset_simulation", "/pause_simulation", "/resume_simulation", "/step_simulation"],
@@ -153,6 +158,7 @@ def test_the_command_says_where_and_how_to_connect_and_serves_its_services(tmp_p
             proc.kill()
     assert proc.returncode == 0, err
     assert err.count("handshake failed") == 1, err
+    assert err.count("ignoring a parameter change on /bubblerob.seed") == 1, err  # read-only
     assert re.fullmatch(
         r"bubblerob node: \d+ steps in [\d.]+ s \([\d.]+ steps/s\), \d+ messages published\n", out
     )

@@ -17,6 +17,7 @@ What the protocol lacks is made up here, as ``foxglove_bridge`` users would expe
   first (:mod:`~bubblerob_env.ros.live.foxglove_json`). A bad message is dropped and logged once
   per kind of fault and topic; it never reaches the simulation loop.
 - Services: :meth:`FoxgloveBackend.add_trigger_service` (``std_srvs/srv/Trigger``, in CDR).
+- Parameters: :meth:`FoxgloveBackend.set_parameters`, read-only (the node's settings).
 
 Clients must offer the WebSocket subprotocol ``foxglove.sdk.v1``: the SDK answers HTTP 400 to
 ``foxglove.websocket.v1`` alone, the default of ``@foxglove/ws-protocol``'s examples.
@@ -124,11 +125,13 @@ class FoxgloveBackend(LiveBackend):
         self._client_channels: dict[tuple[int, int], tuple[str, str, str]] = {}
         self._faults: set[tuple[str, str]] = set()
         self._subscribers: dict[str, int] = {}
+        self._parameters: dict[str, bool | int | float | str] = {}
         self._now_ns = 0
         self._broadcast_ns = -1
         self._closed = False
         self._context = foxglove.Context()
         capabilities = [Capability.ClientPublish, Capability.Services, Capability.Time]
+        capabilities.append(Capability.Parameters)
         try:
             self._server = foxglove.start_server(
                 name=name,
@@ -262,6 +265,24 @@ class FoxgloveBackend(LiveBackend):
             self._faults.add((kind, topic))
         self.log("warn", f"ignoring {kind} on {topic}: {detail} (further ones are not logged)")
 
+    def set_parameters(self, values: dict[str, bool | int | float | str]) -> None:
+        """Read-only parameters that clients see (Foxglove's Parameters panel): the settings."""
+        with self._lock:
+            self._parameters.update(values)
+
+    def parameters(self, names: list[str]) -> list[Any]:
+        """The SDK's ``Parameter`` s of ``names`` (all of them where ``names`` is empty)."""
+        with self._lock:
+            chosen = {n: v for n, v in self._parameters.items() if not names or n in names}
+        fox = self._foxglove
+        # A whole float (1.0) would go out as an integer without its type.
+        return [
+            fox.Parameter(name, value=v, type=fox.ParameterType.Float64)
+            if isinstance(v, float)
+            else fox.Parameter(name, value=v)
+            for name, v in chosen.items()
+        ]
+
     def subscribers(self, topic: str) -> int:
         """How many client subscriptions ``topic`` has now."""
         return self._subscribers.get(topic, 0)
@@ -345,3 +366,21 @@ class _Listener:
 
     def on_message_data(self, client: Any, client_channel_id: int, data: bytes) -> None:
         self.backend.client_message(client.id, client_channel_id, bytes(data))
+
+    def on_get_parameters(
+        self, client: Any, param_names: list[str], request_id: str | None = None
+    ) -> list[Any]:
+        return self.backend.parameters(param_names)
+
+    def on_set_parameters(
+        self, client: Any, parameters: list[Any], request_id: str | None = None
+    ) -> list[Any]:
+        names = [p.name for p in parameters]
+        self.backend.fault("a parameter change", ", ".join(names), "the parameters are read-only")
+        return self.backend.parameters(names)
+
+    def on_parameters_subscribe(self, param_names: list[str]) -> None:
+        return None
+
+    def on_parameters_unsubscribe(self, param_names: list[str]) -> None:
+        return None

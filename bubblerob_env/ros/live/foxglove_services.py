@@ -18,12 +18,15 @@ when it happened.
 
 from __future__ import annotations
 
+from dataclasses import asdict
+from typing import Any
+
 from bubblerob_env.ros.live.foxglove import FoxgloveBackend
 from bubblerob_env.ros.live.foxglove_robot import publish_robot_model
 from bubblerob_env.ros.live.node import PAUSED, SimNode
 from bubblerob_env.ros.messages.topics import namespace_prefix
 
-__all__ = ["SERVICE_NAMES", "add_simulation_services", "serve_simulation"]
+__all__ = ["SERVICE_NAMES", "add_simulation_services", "node_parameters", "serve_simulation"]
 
 SERVICE_NAMES = ("reset_simulation", "pause_simulation", "resume_simulation", "step_simulation")
 """The services, under the node's namespace."""
@@ -63,9 +66,24 @@ def add_simulation_services(backend: FoxgloveBackend, node: SimNode, namespace: 
 
 
 def serve_simulation(backend: FoxgloveBackend, node: SimNode, namespace: str = "") -> None:
-    """Add what a Foxglove server offers beyond ``node``'s topics: services, the robot's body.
+    """Add what a Foxglove server offers beyond ``node``'s topics.
 
-    The body: :func:`~bubblerob_env.ros.live.foxglove_robot.publish_robot_model`.
+    The services, the robot's body
+    (:func:`~bubblerob_env.ros.live.foxglove_robot.publish_robot_model`) and the settings as
+    read-only parameters (:func:`node_parameters`).
     """
     add_simulation_services(backend, node, namespace)
     publish_robot_model(backend, node.publisher.env, node.publisher.topics)
+    backend.set_parameters(node_parameters(node, namespace))
+
+
+def node_parameters(node: SimNode, namespace: str = "") -> dict[str, bool | int | float | str]:
+    """The node's settings as read-only parameters, ``<namespace>/bubblerob.<setting>``."""
+    spec = getattr(node.publisher.env, "spec", None)
+    values: dict[str, Any] = {"env": getattr(spec, "id", "") or "", **asdict(node.config)}
+    prefix = namespace_prefix(namespace)
+    return {
+        f"{prefix}/bubblerob.{key}": value
+        for key, value in values.items()
+        if isinstance(value, (bool, int, float, str))
+    }
