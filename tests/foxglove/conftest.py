@@ -28,13 +28,20 @@ START_NS = 1_700_000_000 * 10**9
 """The node's first stamp (``NodeConfig.start_time``): stamps tell which step a message is of."""
 DT_NS = 50_000_000
 
-if shutil.which("node") is None or not (CLIENT_DIR / "node_modules/@foxglove/ws-protocol").is_dir():
-    pytest.skip(
-        "the Foxglove tests need Node.js and @foxglove/ws-protocol: run `make test-setup` "
-        "(npm ci in tests/foxglove)",
-        allow_module_level=True,
-    )
-pytest.importorskip("foxglove", reason="the Foxglove tests need the [foxglove] extra")
+NODE_MISSING = (
+    "the Foxglove client tests need Node.js and @foxglove/ws-protocol: run `make test-setup` "
+    "(npm ci in tests/foxglove)"
+    if shutil.which("node") is None
+    or not (CLIENT_DIR / "node_modules/@foxglove/ws-protocol").is_dir()
+    else None
+)
+"""Why the tests that run Foxglove's client skip (``None``: they run)."""
+
+
+@pytest.fixture(autouse=True)
+def _needs_the_sdk() -> None:
+    """Every test here serves Foxglove: skip, saying why, without the [foxglove] extra."""
+    pytest.importorskip("foxglove", reason="the Foxglove tests need the [foxglove] extra")
 
 
 @dataclass
@@ -99,7 +106,9 @@ def run_client(url: str, plan: list[dict[str, Any]], subprotocol: str | None = N
 def start_client(
     url: str, plan: list[dict[str, Any]], subprotocol: str | None = None
 ) -> subprocess.Popen[str]:
-    """``client.mjs`` started in the background (see :func:`finish_client`)."""
+    """``client.mjs`` started in the background (see :func:`finish_client`); skips without Node."""
+    if NODE_MISSING:
+        pytest.skip(NODE_MISSING)
     args = ["node", str(CLIENT_DIR / "client.mjs"), url, json.dumps(plan)]
     return subprocess.Popen(
         args + ([subprotocol] if subprotocol else []),
