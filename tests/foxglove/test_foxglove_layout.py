@@ -1,14 +1,19 @@
-"""docs/foxglove/bubblerob.json: what ``layout.py`` writes, naming only topics the node has."""
+"""docs/foxglove/bubblerob.json: what ``layout.py`` writes, naming only topics the node has;
+README's picture of it: what ``docs/foxglove/make_picture.py`` draws."""
 
 from __future__ import annotations
 
+import importlib.util
 import json
+from pathlib import Path
 
 from layout import LAYOUT_FILE, layout_text
 
 from bubblerob_env.ros.live.foxglove_robot import MARKER_TYPE, robot_model_topic
 from bubblerob_env.ros.messages.topics import MSGTYPES, Topics
 
+ROOT = Path(__file__).resolve().parents[2]
+PICTURE_SCRIPT = ROOT / "docs" / "foxglove" / "make_picture.py"
 PANEL_TYPES = {
     "/map": "nav_msgs/msg/OccupancyGrid",
     "/scan": "sensor_msgs/msg/LaserScan",
@@ -45,3 +50,15 @@ def test_the_layout_names_the_nodes_topics_with_the_types_its_panels_show() -> N
         else:
             stack += [node["first"], node["second"]]
     assert sorted(placed) == sorted(configs)
+
+
+def test_readmes_picture_of_the_layout_is_drawn_by_its_script(tmp_path: Path) -> None:
+    spec = importlib.util.spec_from_file_location("make_picture", PICTURE_SCRIPT)
+    assert spec is not None and spec.loader is not None
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    script.OUT = tmp_path / "layout.png"
+    script.main()
+    assert script.OUT.read_bytes()[:4] == b"\x89PNG"
+    assert "(docs/foxglove/layout.png)" in (ROOT / "README.md").read_text()
+    assert (ROOT / "docs" / "foxglove" / "layout.png").is_file()
