@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from bubblerob_env.ros.live.backend import LiveBackend
+from bubblerob_env.ros.live.localizer import LiveLocalizer
 from bubblerob_env.ros.live.wrapper import RosLivePublisher
 from bubblerob_env.ros.messages.distros import deserialize, serialize, typestore
 from bubblerob_env.ros.messages.topics import Topics, namespace_prefix
@@ -98,20 +99,22 @@ class LiveNavigation:
         with self._lock:
             self._pending = (frame, x, y)
 
-    def apply(
-        self, pose: tuple[float, float] | None, map_to_odom: tuple[float, float, float]
-    ) -> None:
-        """Set the latest queued goal, if any: planned from ``pose`` (None: the true position).
+    def apply(self, localizer: LiveLocalizer | None) -> None:
+        """Set the latest queued goal, if any, planned from the robot's position.
 
-        ``map_to_odom`` (x, y, yaw) moves a goal given in ``odom`` into ``map``.
+        With a ``localizer`` (``--localize``) from its estimate, and a goal in ``odom`` moved
+        into ``map`` by its ``map -> odom``; without, from the truth (``odom`` is ``map``).
         """
         with self._lock:
             pending, self._pending = self._pending, None
         if pending is None:
             return
         frame, x, y = pending
-        if frame == self.frames["odom"]:
-            tx, ty, yaw = map_to_odom
+        pf = None if localizer is None else localizer.filter
+        estimate = None if localizer is None else localizer.pose
+        pose = None if estimate is None else (estimate[0], estimate[1])
+        if frame == self.frames["odom"] and pf is not None:
+            tx, ty, yaw = (float(v) for v in pf.map_to_odom())
             c, s = math.cos(yaw), math.sin(yaw)
             x, y = tx + c * x - s * y, ty + s * x + c * y
         try:

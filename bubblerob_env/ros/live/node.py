@@ -353,24 +353,11 @@ class SimNode:
         action = self.state.action(self.sim_time)
         if self.driver is None or self._obs is None:
             return action
-        obs, pose = self._obs, self._estimate()
+        obs, pose = self._obs, None if self.localizer is None else self.localizer.pose
         if self.navigation is not None and pose is not None:
             obs = self.navigation.observed(obs, pose)
         start, self._episode_start = self._episode_start, False
         return self.driver(obs, start)
-
-    def _estimate(self) -> tuple[float, float, float] | None:
-        """The localiser's pose estimate in ``map``; None without ``localize``."""
-        return None if self.localizer is None else self.localizer.pose
-
-    def _apply_goal(self) -> None:
-        """A Nav env's goal received since the last call, planned from the robot's pose."""
-        if self.navigation is None or self.publisher.stamp_ns is None:
-            return
-        pose = self._estimate()
-        pf = None if self.localizer is None else self.localizer.filter
-        tx, ty, yaw = (0.0, 0.0, 0.0) if pf is None else (float(v) for v in pf.map_to_odom())
-        self.navigation.apply(None if pose is None else (pose[0], pose[1]), (tx, ty, yaw))
 
     def run(self, max_steps: int | None = None, duration: float | None = None) -> int:
         """Run until shut down, ``max_steps`` steps, or ``duration`` wall seconds; steps taken."""
@@ -389,7 +376,8 @@ class SimNode:
             for event, value in self.state.drain():
                 self._handle(event, value)
             self._apply_switches()
-            self._apply_goal()
+            if self.navigation is not None and self.publisher.stamp_ns is not None:
+                self.navigation.apply(self.localizer)  # a goal received since the last pass
             if self.sim_state != RUNNING or (self.sync and self._pending <= 0):
                 deadline = None
                 self.state.wait(min(0.05, max(0.0, end - time.monotonic())))
