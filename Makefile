@@ -17,7 +17,7 @@ VENV_CLIENTS ?= .venv-clients
 # ray[rllib] 2.60 pins gymnasium 1.2.2, the lowest the project supports: the core's tests run on
 # it here too.
 CLIENT_PACKAGES := "tianshou[eval]==2.0.1" "ray[rllib]==2.60.0"
-CLIENT_TESTS := tests/test_clients_tianshou.py tests/ray/test_rllib.py
+CLIENT_TESTS := tests/test_clients_tianshou.py tests/ray/test_rllib.py tests/ray/test_rllib_multi.py
 LOWEST_GYMNASIUM_TESTS := tests/test_env.py tests/test_vector_env.py tests/test_determinism.py \
 	tests/test_policies.py tests/test_sb3_vec_env.py
 PYTEST_ARGS ?=
