@@ -61,9 +61,27 @@ def add_env_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def make_env(command: str, env_id: str, env_kwargs: dict[str, Any], **fixed: Any) -> Any:
-    """``gym.make(env_id, **env_kwargs, **fixed)``; a bad id or kwarg is one line, exit 2."""
+def make_env(
+    command: str,
+    env_id: str,
+    env_kwargs: dict[str, Any],
+    dict_observations: bool = False,
+    **fixed: Any,
+) -> Any:
+    """``gym.make(env_id, **env_kwargs, **fixed)``; a bad id or kwarg is one line, exit 2.
+
+    ``dict_observations``: the command turns observations into ROS messages (``record``,
+    ``node``), which needs the ``Dict`` observation: ``obs_mode='flat'`` is refused before any
+    bag or ROS node is made.
+    """
     import gymnasium as gym
+
+    if dict_observations and env_kwargs.get("obs_mode", "dict") != "dict":
+        fail(
+            command,
+            f"--env-kwargs obs_mode {env_kwargs['obs_mode']!r}: {command} makes ROS messages "
+            "from the Dict observation; leave obs_mode 'dict' (the default)",
+        )
 
     if "=" in env_id:  # the node's old `--env KEY=JSON`: an env id never holds '='
         key, _, value = env_id.partition("=")

@@ -219,10 +219,16 @@ def _node(args: argparse.Namespace) -> int:
         fail("node", "the node drives the wheels: action_type must be 'wheels' (cmd_vel is mapped)")
     kwargs["action_type"] = "wheels"
     topics, config = _topics_and_config(args)
-    env = make_env("node", args.env, kwargs)
+    env = make_env("node", args.env, kwargs, dict_observations=True)
     if args.localize and getattr(env.unwrapped, "laser_spec", None) is None:
         env.close()
         fail("node", "--localize needs the laser: leave laser_num_rays above 0")
+    if args.localize:
+        from bubblerob_env.ros.localize import localize_problem
+
+        if problem := localize_problem(env, config.map_resolution):
+            env.close()
+            fail("node", f"--localize: {problem}")
     driver = None if args.policy is None else _driver(args.policy, env)
     backend = _start_backend(args, env)
     config = _follow_clock(args, backend, config)

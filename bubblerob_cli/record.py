@@ -180,7 +180,7 @@ def _record(args: argparse.Namespace) -> int:
         from bubblerob_cli.ray.record import record_command
 
         return record_command(args, record_env_kwargs(args))
-    env = make_env("record", args.env, record_env_kwargs(args))
+    env = make_env("record", args.env, record_env_kwargs(args), dict_observations=True)
     name = f"bubblerob_{Path(args.policy).stem}_seed{args.seed}"
     try:
         policy = _load_policy(args.policy, env, args.seed)

@@ -163,6 +163,14 @@ class OverheadRenderer:
         self._renderer.close()
 
 
+class NoDisplayError(RuntimeError, ValueError):
+    """``render_mode='human'`` where no window can be opened: a value that cannot work here.
+
+    A ``ValueError`` as every refused kwarg is (one line in the commands); a ``RuntimeError`` as
+    it always was.
+    """
+
+
 class HumanViewer:
     """MuJoCo's interactive viewer window, synced once per ``render()`` call."""
 
@@ -176,7 +184,7 @@ class HumanViewer:
     def require_display() -> None:
         """Raise a clear error where no window can be opened."""
         if not display_available():
-            raise RuntimeError(
+            raise NoDisplayError(
                 "render_mode='human' opens a window, but no display was found (DISPLAY and "
                 "WAYLAND_DISPLAY are unset). Use render_mode='rgb_array' to get frames as arrays, "
                 "or run under a display (for example xvfb-run)."

@@ -27,10 +27,37 @@ from bubblerob_env.localisation.picture import (
 )
 from bubblerob_env.ros.localize_bag import BagEpisodes
 
-__all__ = ["GLOBAL_DEADLINE_S", "default_png", "localize_bag", "picture", "report"]
+__all__ = [
+    "GLOBAL_DEADLINE_S",
+    "default_png",
+    "localize_bag",
+    "localize_problem",
+    "picture",
+    "report",
+]
 
 GLOBAL_DEADLINE_S = 10.0
 """Issue #27's deadline for global localisation to converge (simulated seconds)."""
+
+
+def localize_problem(env: Any, resolution: float) -> str:
+    """Why the particle filter cannot run on ``env``'s maps at ``resolution`` (``""``: it can).
+
+    Every episode's map must keep a free cell for the particles (global localisation draws them
+    there): the cell holding the start pose is free of walls and obstacles on every layout
+    whenever its diagonal fits inside the start's clearance (the robot's radius plus
+    ``start_clearance``: no wall or obstacle comes nearer); a coarser map may have none.
+    """
+    base = env.unwrapped
+    clear = float(base.robot.radius) + float(base.config.start_clearance)
+    largest = clear / math.sqrt(2.0)
+    if resolution > largest:
+        return (
+            f"--map-resolution {resolution:g} m is too coarse for the particle filter: a map "
+            f"may have no free cell; use at most {math.floor(largest * 1000) / 1000:g} m here "
+            f"(a cell whose diagonal fits the start's clearance of {clear:.3f} m)"
+        )
+    return ""
 
 
 def default_png(bag: str | Path) -> Path:

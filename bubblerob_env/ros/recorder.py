@@ -102,6 +102,12 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
                 occupancy grid, written once per episode at its start stamp), 0.005 to 1.
         """
         super().__init__(env)
+        if not isinstance(env.observation_space, gym.spaces.Dict):  # before the bag is made
+            raise ValueError(
+                "a recorder makes ROS messages from the Dict observation, but this env gives "
+                f"{type(env.observation_space).__name__} observations: make it with obs_mode "
+                "'dict' (the default)"
+            )
         if format not in FORMATS:
             raise ValueError(f"unknown bag format {format!r}; choose one of {list(FORMATS)}")
         self.format = format
@@ -204,6 +210,7 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
         if self._stream.last_ns is None or self._closed:
             raise RuntimeError("call reset() before step() (and do not step a closed recorder)")
         with safety.critical:
+            self._stream.follow_goal(self.env)  # a Nav env's goal set since the last step
             obs, reward, terminated, truncated, info = self.env.step(action)
             self._stream.step(obs, info, action, reward, terminated, truncated)
             if (terminated or truncated) and self._sink is not None:
