@@ -156,6 +156,7 @@ class EpisodeStream:
         self.last_ns: int | None = None
         """Stamp of the latest frame; ``None`` before the first (or after :meth:`restart`)."""
         self._offset_ns = 0
+        self._sent_problem: NavProblem | None = None  # a Nav env's goal and path last sent
 
     def restart(self) -> None:
         """Start again at the epoch with ``/tf_static`` (a new bag); sequence numbers go on."""
@@ -237,6 +238,7 @@ class EpisodeStream:
         self.fanout.write_records(lambda s: [s.episode(metadata, start)])
         if grid is not None:
             self.fanout.write_records(lambda s: s.map(grid, start))
+        self._sent_problem = problem
         if problem is not None:
             self.fanout.write_records(lambda s: s.goal(problem, start))
         self.fanout.write_frame(obs, info, start, self.seq)
@@ -245,11 +247,23 @@ class EpisodeStream:
         return start
 
     def new_goal(self, problem: NavProblem) -> None:
-        """Send a goal and path set during an episode, stamped with its latest frame."""
+        """Send a goal and path set during an episode (once), stamped with its latest frame."""
         if self.last_ns is None:
             raise RuntimeError("new_goal before the episode's first frame")
+        if problem is self._sent_problem:
+            return
         stamp = self.last_ns
+        self._sent_problem = problem
         self.fanout.write_records(lambda s: s.goal(problem, stamp))
+
+    def follow_goal(self, env: gym.Env[Any, Any]) -> None:
+        """Before a step: send a Nav env's goal if it changed since the last one sent.
+
+        ``env.unwrapped.set_goal`` between steps is then in the bag, where replay sets it again.
+        """
+        problem = getattr(env.unwrapped, "problem", None)
+        if isinstance(problem, NavProblem) and problem is not self._sent_problem:
+            self.new_goal(problem)
 
     def step(
         self,

@@ -92,6 +92,29 @@ def test_replay_reports_a_goal_that_differs(recorded, monkeypatch):
     assert report.divergence.topic == "/move_base/current_goal" and report.divergence.step == 0
 
 
+def test_a_goal_set_between_steps_is_recorded_and_replayed(tmp_path):
+    path = tmp_path / "set.bag"
+    with RosBagRecorder(gym.make("BubbleRobNav-v0"), path, format="ros1", start_time=START) as rec:
+        rec.reset(seed=SEEDS[0])
+        drawn = rec.unwrapped.problem
+        for _ in range(5):
+            rec.step(np.array([0.5, 0.4], dtype=np.float32))
+        here = rec.unwrapped.robot_pose[:2]
+        goal = tuple((drawn.path[0] + drawn.path[1]) / 2)  # in line of sight: free
+        rec.unwrapped.set_goal(goal)
+        for _ in range(5):
+            rec.step(np.array([0.5, 0.4], dtype=np.float32))
+    goals, plans = (read_all(path)[t] for t in ("/move_base/current_goal", "/plan"))
+    frames = [stamp for stamp, _ in read_all(path)["/odom"]]
+    assert [s for s, _ in goals] == [s for s, _ in plans] == [frames[0], frames[5]]
+    second = plans[1][1].poses
+    assert (goals[1][1].pose.position.x, goals[1][1].pose.position.y) == goal
+    assert (second[0].pose.position.x, second[0].pose.position.y) == here
+    assert (second[-1].pose.position.x, second[-1].pose.position.y) == goal
+    report = replay_bag(path)
+    assert report.ok and report.steps == 10, str(report)
+
+
 def test_other_envs_bags_name_no_goal_topics(tmp_path):
     assert not set(NAV_TOPICS) & set(Topics().to_dict())
     assert Topics().for_nav().to_dict()["plan"] == "/plan"

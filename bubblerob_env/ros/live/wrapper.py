@@ -122,6 +122,7 @@ class RosLivePublisher(gym.Wrapper[Any, Any, Any, Any]):
         """Step the env and publish the frame (the action's topics stamped when it was sent)."""
         if self.stamp_ns is None or self._closed:
             raise RuntimeError("call reset() before step() (and do not step a closed publisher)")
+        self._stream.follow_goal(self.env)  # a Nav env's goal set since the last step
         obs, reward, terminated, truncated, info = self.env.step(action)
         self._stream.step(
             obs, info, np.asarray(action), float(reward), bool(terminated), bool(truncated)

@@ -266,7 +266,11 @@ def _replay_episode(
     args = convert(obs, info, start, seq)
     records = serializer.frame(args, start, start, False) + detect(obs, start, seq)
     problem = getattr(base, "problem", None)  # a Nav env's goal and path, re-planned
-    divergence = check(records + (serializer.goal(problem, start) if problem else []), 0)
+    records += serializer.goal(problem, start) if problem else []
+    # The goals set after a frame are planned once its records are compared (lazy ``or``).
+    divergence = check(records, 0) or check(
+        _goals_set_at(base, serializer, recorded, cursor, start), 0
+    )
     if divergence is not None:
         return 0, compared, divergence
     last = start
@@ -276,7 +280,9 @@ def _replay_episode(
         stamp = offset + round(float(info["sim_time"]) * 1e9)
         args = convert(obs, info, stamp, seq, action, float(reward), terminated, truncated)
         records = serializer.frame(args, stamp, last, True) + detect(obs, stamp, seq)
-        divergence = check(records, step)
+        divergence = check(records, step) or check(
+            _goals_set_at(base, serializer, recorded, cursor, stamp), step
+        )
         if divergence is not None:
             return step, compared, divergence
         last = stamp
@@ -289,6 +295,35 @@ def _replay_episode(
                 Divergence(meta["episode"], len(actions), topic, "message", extra, "none"),
             )
     return len(actions), compared, None
+
+
+def _goals_set_at(
+    base: Any, serializer: FrameSerializer, recorded: _Episode, cursor: dict[str, int], stamp: int
+) -> list[Record]:
+    """A Nav env's goals set after the frame at ``stamp`` (live, or ``set_goal`` between steps).
+
+    Each recorded goal not yet compared with that stamp is set again, from its recorded path's
+    first point (the node plans from its pose estimate with ``--localize``); the records of the
+    new goal and path, to compare. A goal the env refuses is left for the end's count.
+    """
+    names = serializer.names
+    if "goal" not in names or "plan" not in names or not hasattr(base, "set_goal"):
+        return []
+    goals, plans = recorded.messages[names["goal"]], recorded.messages[names["plan"]]
+    records: list[Record] = []
+    first, first_plan = cursor[names["goal"]], cursor[names["plan"]]
+    for k, (at, raw) in enumerate(goals[first:]):
+        if at != stamp or first_plan + k >= len(plans):
+            break
+        decode = _decoder(serializer)
+        try:
+            position = decode(raw, MSGTYPES["goal"]).pose.position
+            start = decode(plans[first_plan + k][1], MSGTYPES["plan"]).poses[0].pose.position
+            problem = base.set_goal((position.x, position.y), (start.x, start.y))
+        except (ValueError, IndexError):
+            break
+        records += serializer.goal(problem, stamp)
+    return records
 
 
 def _recorded_actions(
