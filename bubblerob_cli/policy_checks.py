@@ -14,7 +14,7 @@ __all__ = ["check_episode_arguments", "check_policies"]
 
 
 def check_policies(command: str, names: list[str], env_id: str, env_kwargs: Any) -> None:
-    """Load each policy once before any episode: a wrong name or file is one line, exit 1."""
+    """Load each policy once before any episode: a wrong name or file is one line, exit 2."""
     import gymnasium as gym
 
     from policies.loading import load_policy
@@ -26,15 +26,17 @@ def check_policies(command: str, names: list[str], env_id: str, env_kwargs: Any)
             fail(command, f"--env {env_id} --env-kwargs: {error}")
         try:
             load_policy(name, env)
-        except (ValueError, TypeError, OSError) as error:
-            raise SystemExit(f"bubblerob {command}: {error}") from None
-        except Exception as error:  # noqa: BLE001 - a damaged .zip or .onnx: zipfile, onnxruntime
-            raise SystemExit(
-                f"bubblerob {command}: cannot load the policy file {name}: "
-                f"{type(error).__name__}: {str(error).strip().splitlines()[0]}"
-            ) from None
-        finally:
+        except (ValueError, TypeError, OSError) as error:  # a usage error: exit 2
             env.close()
+            fail(command, str(error).strip().splitlines()[0])
+        except Exception as error:  # noqa: BLE001 - a damaged .zip or .onnx: zipfile, onnxruntime
+            env.close()
+            fail(
+                command,
+                f"cannot load the policy file {name}: "
+                f"{type(error).__name__}: {(str(error).strip().splitlines() or [''])[0]}",
+            )
+        env.close()
 
 
 def check_episode_arguments(command: str, args: argparse.Namespace) -> None:

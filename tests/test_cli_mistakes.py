@@ -22,7 +22,7 @@ pytest.importorskip("policies")
 )
 def test_a_wrong_policy_is_one_line(args, says, capsys):
     result = run(args, capsys)
-    assert result.code == 1
+    assert result.code == 2  # a usage error (issue #38 kind 7)
     assert "Traceback" not in result.err and result.err.count("\n") == 1, result.err
     assert result.err.startswith(f"bubblerob {args[0]}: ") and says in result.err
 

@@ -89,7 +89,7 @@ def test_a_damaged_policy_file_is_one_line_naming_it(tmp_path, capsys):
         ):
             done = run(argv, capsys)
             line = done.one_line()
-            assert done.code == 1 and f"cannot load the policy file {path}" in line, line
+            assert done.code == 2 and f"cannot load the policy file {path}" in line, line
         record = ["record", "--policy", str(path), "--out", str(tmp_path / "bags")]
         done = run(record, capsys)  # record's refusals are all exit 2
         assert done.code == 2 and f"cannot load the policy file {path}" in done.one_line()
