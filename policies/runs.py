@@ -24,6 +24,7 @@ follower (:data:`RESIDUAL_ON_LASER`).
 from __future__ import annotations
 
 import json
+import operator
 import sys
 from importlib import metadata
 from pathlib import Path
@@ -57,6 +58,7 @@ __all__ = [
     "recorded_env",
     "recorded_env_kwargs",
     "recorded_pooling",
+    "pool_size",
     "residual_scale",
     "run_env_kwargs",
     "versions",
@@ -195,8 +197,19 @@ def laser_pooling(spec: Any) -> list[tuple[str, int]]:
         unknown = sorted(set(kwargs) - {"pool", "key"})
         if unknown:
             raise ValueError(f"env_wrapper {name!r}: unknown arguments {unknown}")
-        steps.append((str(kwargs.get("key", "laser")), int(kwargs.get("pool", 10))))
+        steps.append((str(kwargs.get("key", "laser")), pool_size(name, kwargs.get("pool", 10))))
     return steps
+
+
+def pool_size(name: str, pool: Any) -> int:
+    """A ``LaserPooling``'s ``pool`` as an int; ``ValueError`` in one line unless an int >= 1."""
+    try:
+        size = operator.index(pool) if not isinstance(pool, bool) else 0
+    except TypeError:
+        size = 0  # not an int: refused below
+    if size < 1:
+        raise ValueError(f"env_wrapper {name!r}: pool must be an int >= 1, got {pool!r}")
+    return size
 
 
 def residual_scale(env_wrapper: Any) -> float | None:

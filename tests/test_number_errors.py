@@ -65,3 +65,10 @@ def test_train_refuses_them_in_one_line_before_training(
     pytest.importorskip("stable_baselines3")
     result = run(["train", "--out", str(tmp_path), "--set", setting], capsys)
     assert (result.code, result.one_line()) == (2, line)
+
+
+@pytest.mark.parametrize("pool", ["abc", 0, 2.5, None])
+def test_a_laser_pooling_that_is_no_int_is_named(pool: object) -> None:
+    spec = [{"bubblerob_env.wrappers.LaserPooling": {"pool": pool}}]
+    with pytest.raises(ValueError, match=re.escape(f"pool must be an int >= 1, got {pool!r}")):
+        check_hyperparams("ppo", {"env_wrapper": spec})

@@ -109,10 +109,13 @@ def check_hyperparams(algo: str, config: dict[str, Any]) -> None:
 
 def _check_numbers_in_classes(config: dict[str, Any]) -> None:
     """The numbers given to the project's own wrapper and callback, checked before training."""
-    from policies.runs import parse_env_wrapper, residual_scale
+    from policies.runs import LASER_POOLING, parse_env_wrapper, pool_size, residual_scale
 
     if config.get("env_wrapper"):
         residual_scale(config["env_wrapper"])  # a ResidualOnLaser's scale: a number in (0, 2]
+    for name, kwargs in parse_env_wrapper(config.get("env_wrapper")):
+        if name == LASER_POOLING:
+            pool_size(name, kwargs.get("pool", 10))
     for name, kwargs in parse_env_wrapper(config.get("callback")):
         if name == "train.callbacks.ObstacleCurriculum":
             from train.callbacks import ObstacleCurriculum
