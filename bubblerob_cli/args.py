@@ -18,7 +18,7 @@ class HelpFormatter(argparse.HelpFormatter):
         default = action.default
         if (
             "default" in text
-            or default in (None, False, argparse.SUPPRESS)
+            or any(default is hidden for hidden in (None, False, argparse.SUPPRESS))
             or action.option_strings == []
             or isinstance(default, list)
             and not default
