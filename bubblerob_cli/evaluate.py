@@ -9,6 +9,7 @@ from typing import Any
 from bubblerob_cli.args import add_env_arguments
 from bubblerob_cli.demo import add_demo_subcommand
 from bubblerob_cli.errors import fail
+from bubblerob_cli.evaluate_robots import add_robots_arguments, run_robots
 from bubblerob_cli.foxglove_view import add_foxglove_option, evaluate_live
 from bubblerob_cli.policy_checks import check_episode_arguments, check_policies
 from policies.evaluation import (
@@ -79,6 +80,7 @@ def add_subcommands(subparsers: Any) -> None:
         "anything else is ray.init's address ('auto', HOST:PORT); needs the [ray] extra",
     )
     add_foxglove_option(parser)
+    add_robots_arguments(parser)
     parser.set_defaults(handler=_run_evaluate)
 
     add_demo_subcommand(subparsers)
@@ -106,6 +108,8 @@ def _run_evaluate(args: argparse.Namespace) -> int:
         if args.video_policy is not None and args.video_policy not in args.policy:
             raise SystemExit(f"--video-policy {args.video_policy} is not one of --policy")
     check_policies("evaluate", list(args.policy), args.env, args.env_kwargs)
+    if args.robots is not None:
+        return run_robots(args)
     if args.ray is not None and args.foxglove is not None:
         fail("evaluate", "--foxglove publishes from this process: not with --ray")
     if args.ray is not None:

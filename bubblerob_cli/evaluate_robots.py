@@ -1,0 +1,82 @@
+"""``bubblerob evaluate --robots N``: one policy on every robot of a world, per robot-episode.
+
+The options and their checks; the episodes are :mod:`policies.multi_evaluation`'s.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from bubblerob_cli.errors import fail
+from bubblerob_env.extras import MissingExtraError
+
+__all__ = ["add_robots_arguments", "run_robots"]
+
+
+def add_robots_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--robots N`` and ``--scenario``."""
+    parser.add_argument(
+        "--robots",
+        type=int,
+        metavar="N",
+        help="run each policy on every robot of a world of N robots (parallel_env; the [multi] "
+        "extra) and report per robot-episode: success, obstacle and robot-robot collisions "
+        "with Wilson 95%% intervals, speed; --episodes counts worlds",
+    )
+    parser.add_argument(
+        "--scenario",
+        choices=["random", "circle"],
+        default="random",
+        help="with --robots: free random start poses, or on a circle facing its centre "
+        "(default: random)",
+    )
+
+
+def run_robots(args: argparse.Namespace) -> int:
+    """Evaluate ``args.policy`` on worlds of ``args.robots`` robots and print one table."""
+    from policies.multi_evaluation import evaluate_robots, format_multi_table
+
+    if args.robots < 1:
+        fail("evaluate", f"--robots must be >= 1, got {args.robots}")
+    unsupported = [
+        option
+        for option, value in (("--video", args.video), ("--ray", args.ray),
+                              ("--foxglove", args.foxglove))
+        if value is not None
+    ]  # fmt: skip
+    if unsupported:
+        fail("evaluate", f"--robots runs in this process without video: not with {unsupported[0]}")
+    results = []
+    for name in args.policy:
+        try:
+            results.append(
+                evaluate_robots(
+                    name,
+                    args.robots,
+                    args.scenario,
+                    args.episodes,
+                    args.seed,
+                    args.env,
+                    args.env_kwargs,
+                    progress=True,
+                )  # fmt: skip
+            )
+        except MissingExtraError as error:
+            raise SystemExit(str(error)) from None
+        except ValueError as error:  # too many robots for the arena, a Nav env, a bad kwarg
+            fail("evaluate", f"--robots {args.robots}: {error}")
+    print(format_multi_table(results, markdown=args.markdown))
+    if args.per_episode is not None:
+        records = {r.policy: list(r.per_robot) for r in results}
+        args.per_episode.write_text(
+            "{\n"
+            + ",\n".join(
+                f"{json.dumps(name)}: [\n" + ",\n".join(json.dumps(e) for e in rows) + "\n]"
+                for name, rows in records.items()
+            )
+            + "\n}\n"
+        )
+        count = sum(len(rows) for rows in records.values())
+        print(f"wrote {args.per_episode}: {count} robot-episodes")
+    return 0
