@@ -98,6 +98,8 @@ class RosConverter(FrameValues):
             )
         self.specs = specs
         self.frame_prefix = frame_prefix
+        self.shared_map = False
+        """Keep ``map`` unprefixed: robots of one world (``bubblerob node --robots``) share it."""
         self.distro = get_distro(distro)
         self.store: Typestore = typestore(distro)
         self._types = self.store.types
@@ -156,13 +158,11 @@ class RosConverter(FrameValues):
 
     def _header(self, v: Mapping[str, Any], frame_id: str) -> Any:
         stamp = self._time(v["sec"], v["nanosec"])
+        shared = self.shared_map and frame_id == MAP_FRAME
+        frame_id = frame_id if shared else self.frame_prefix + frame_id
         if self._ros1:
-            return self._types["std_msgs/msg/Header"](
-                seq=v["seq"], stamp=stamp, frame_id=self.frame_prefix + frame_id
-            )
-        return self._types["std_msgs/msg/Header"](
-            stamp=stamp, frame_id=self.frame_prefix + frame_id
-        )
+            return self._types["std_msgs/msg/Header"](seq=v["seq"], stamp=stamp, frame_id=frame_id)
+        return self._types["std_msgs/msg/Header"](stamp=stamp, frame_id=frame_id)
 
     def _vector3(self, x: Any, y: Any, z: Any) -> Any:
         return self._types["geometry_msgs/msg/Vector3"](x=x, y=y, z=z)
