@@ -11,6 +11,7 @@ from bubblerob_cli.demo import add_demo_subcommand
 from bubblerob_cli.errors import fail
 from bubblerob_cli.evaluate_robots import add_robots_arguments, run_robots
 from bubblerob_cli.foxglove_view import add_foxglove_option, evaluate_live
+from bubblerob_cli.outputs import Output, require_outputs, write_output
 from bubblerob_cli.policy_checks import check_episode_arguments, check_policies
 from policies.evaluation import (
     DEFAULT_EVAL_SEED,
@@ -102,11 +103,15 @@ def _write_per_episode(path: Path, results: list[EvalResult]) -> None:
 def _run_evaluate(args: argparse.Namespace) -> int:
     check_episode_arguments("evaluate", args)
     video_policy = args.video_policy or args.policy[0]
-    if args.video is not None:
-        if args.video.suffix.lower() not in (".mp4", ".gif"):
-            raise SystemExit(f"--video must end in .mp4 or .gif, got {args.video}")
-        if args.video_policy is not None and args.video_policy not in args.policy:
-            raise SystemExit(f"--video-policy {args.video_policy} is not one of --policy")
+    if args.video_policy is not None and args.video_policy not in args.policy:
+        fail("evaluate", f"--video-policy {args.video_policy} is not one of --policy {args.policy}")
+    require_outputs(
+        "evaluate",
+        [
+            args.per_episode and Output("--per-episode", args.per_episode, (".json",)),
+            args.video and Output("--video", args.video, (".mp4", ".gif")),
+        ],
+    )
     check_policies("evaluate", list(args.policy), args.env, args.env_kwargs)
     if args.robots is not None:
         return run_robots(args)
@@ -125,7 +130,12 @@ def _run_evaluate(args: argparse.Namespace) -> int:
         ]
     print(format_table(results, markdown=args.markdown))
     if args.per_episode is not None:
-        _write_per_episode(args.per_episode, results)
+        write_output(
+            "evaluate",
+            "--per-episode",
+            args.per_episode,
+            lambda path: _write_per_episode(path, results),
+        )
     if args.video is not None:
         try:
             frames = record_video(
@@ -133,5 +143,7 @@ def _run_evaluate(args: argparse.Namespace) -> int:
             )
         except FfmpegNotFoundError as error:  # one line: what to install
             raise SystemExit(str(error)) from None
+        except OSError as error:  # a full disk: the episodes' table is printed already
+            fail("evaluate", f"cannot write --video {args.video}: {error.strerror or error}", 1)
         print(f"wrote {args.video}: policy {video_policy}, seed {args.seed}, {frames} frames")
     return 0
