@@ -229,7 +229,7 @@ def _node(args: argparse.Namespace) -> int:
         if problem := localize_problem(env, config.map_resolution):
             env.close()
             fail("node", f"--localize: {problem}")
-    driver = None if args.policy is None else _driver(args.policy, env)
+    driver = None if args.policy is None else _driver(args.policy, env, args.localize)
     backend = _start_backend(args, env)
     config = _follow_clock(args, backend, config)
     controls = CONTROL_PRESETS.get(args.topics)
@@ -303,10 +303,17 @@ def _start_backend(args: argparse.Namespace, env: Any) -> LiveBackend:
         fail("node", str(error))
 
 
-def _driver(name: str, env: Any) -> Any:
+def _driver(name: str, env: Any, localize: str | None) -> Any:
     """``--policy``: ``driver(obs, episode_start) -> action``; one line and exit 2 if unusable."""
     from policies.loading import load_policy
 
+    if name == "pursuit" and localize:  # it would drive on the truth, silently
+        env.close()
+        fail(
+            "node",
+            "--policy pursuit reads the ground truth (the env's pose and layout), not "
+            "--localize's estimate: use --policy navigator, or leave out --localize",
+        )
     try:
         policy = load_policy(name, env)
     except (ValueError, OSError) as error:

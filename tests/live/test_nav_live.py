@@ -12,7 +12,9 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -99,3 +101,27 @@ def test_with_localize_the_goal_and_plan_follow_the_estimate_not_the_truth(local
     assert plan[0] == pytest.approx([x, y], abs=1e-9) and plan[-1] == [goal_x, goal_y]
     assert math.dist(plan[0], START) > 0.25
     assert node.alive()
+
+
+@pytest.mark.parametrize(
+    ("args", "says"),
+    [
+        (("--policy", "navigator"), "policy 'navigator' drives to a goal: it needs a Nav env"),
+        (
+            ("--env", "BubbleRobNav-v0", "--policy", "pursuit", "--localize"),
+            "--policy pursuit reads the ground truth",
+        ),
+    ],
+)
+def test_a_policy_that_cannot_drive_the_node_is_one_line_before_ros_starts(args, says):
+    done = subprocess.run(
+        [sys.executable, "-m", "bubblerob_cli", "node", *args, "--steps", "1"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+        env={**os.environ, "ROS_MASTER_URI": "http://127.0.0.1:1/"},
+    )
+    assert done.returncode == 2, done.stdout + done.stderr
+    (line,) = done.stderr.strip().splitlines()
+    assert line.startswith("bubblerob node: --policy ") and says in line, line
