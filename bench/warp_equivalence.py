@@ -1,13 +1,19 @@
 """How far ``backend="warp"`` is from the CPU env, on held-out seeds, on any Warp device.
 
 Usage: ``python bench/warp_equivalence.py [--device cuda:0] [--seeds 200] [--steps 200]
-[--quick]`` (prints Markdown).
+[--head-on 20] [--quick]`` (prints Markdown).
 
 Rows (:mod:`bubblerob_env.mjwarp.compare`): the laser against ``mj_multiRay`` on the same states
 (largest and 99.9th percentile error, rays compared); head-on drives into walls, cylinders and
-boxes (same first-contact step or not); and, per open-loop drive over ``--seeds`` seeds from 7000
-(never used to build or tune the backend), how many episodes have the CPU env's outcome
-(collision or not within ``--steps`` steps) and how far apart the first contacts are.
+boxes (same first-contact step or not); per open-loop drive (straight, curve, random) over
+``--seeds`` seeds from 30000 (never used to build or tune the backend), how many episodes have the
+CPU env's outcome (collision or not within ``--steps`` steps) and how far apart the first contacts
+are; and the laser against the CPU env's on the reset and each of the 40 steps after it, every
+world, every ray, until the world's first contact. A ray read more than 1 mm apart counts as
+grazing an edge when ``mj_ray`` on the warp state gives the warp reading and the CPU reading jumps
+by more than 1 mm when the ray turns 1e-5 rad either way (:func:`~bubblerob_env.mjwarp.compare.
+grazing`); the largest error is over the other rays. The drift row: how far the robot's pose on
+the two backends is apart over those steps.
 """
 
 from __future__ import annotations
@@ -16,25 +22,34 @@ import argparse
 import datetime
 import os
 import platform
+from typing import Any
 
+import gymnasium as gym
 import numpy as np
 import warp as wp
+from numpy.typing import NDArray
 
 import bubblerob_env  # noqa: F401  (registers the env ids)
 from bubblerob_env.mjwarp import WarpVectorEnv
 from bubblerob_env.mjwarp.compare import (
     DRIVES,
+    Drives,
+    cpu_drives,
     cpu_first_contact,
     cpu_laser,
     drive_actions,
     first_contacts,
+    grazing,
     head_on_seeds,
+    warp_drives,
 )
 
-FIRST_SEED = 7000
+FIRST_SEED = 30000
+LASER_STEPS = 40
+TOLERANCE = 1e-3  # metres
 
 
-def _laser_rows(device: str | None, worlds: int, steps: int) -> str:
+def _mj_multiray_row(device: str | None, worlds: int, steps: int) -> str:
     env = WarpVectorEnv(worlds, device=device, max_episode_steps=100, layout_bank=16)
     obs, _ = env.reset(seed=FIRST_SEED)
     rng = np.random.default_rng(FIRST_SEED)
@@ -53,7 +68,7 @@ def _laser_rows(device: str | None, worlds: int, steps: int) -> str:
 
 def _head_on_row(device: str | None, per_kind: int) -> str:
     seeds = head_on_seeds(per_kind, first_seed=FIRST_SEED)
-    kwargs = {"start_pose": (0.0, 0.0, 0.0), "max_episode_steps": 150}
+    kwargs: dict[str, Any] = {"start_pose": (0.0, 0.0, 0.0), "max_episode_steps": 150}
     env = WarpVectorEnv(len(seeds), device=device, layout_bank=16, **kwargs)
     actions = drive_actions("straight", len(seeds), 150, seed=0)
     warp = first_contacts(env, seeds, actions)
@@ -64,25 +79,76 @@ def _head_on_row(device: str | None, per_kind: int) -> str:
     return f"| head-on drives, same first-contact step | {3 * per_kind} drives | {parts} |"
 
 
-def _outcome_row(device: str | None, drive: str, seeds: int, steps: int) -> str:
-    actions = drive_actions(drive, seeds, steps, seed=FIRST_SEED)
-    seed_list = list(range(FIRST_SEED, FIRST_SEED + seeds))
-    env = WarpVectorEnv(seeds, device=device, max_episode_steps=steps, layout_bank=16)
-    warp = first_contacts(env, seed_list, actions)
-    cpu = np.array(
-        [
-            cpu_first_contact(s, actions[:, i], max_episode_steps=steps)
-            for i, s in enumerate(seed_list)
-        ]
+def _compared(warp: Drives, cpu: Drives) -> NDArray[np.bool_]:
+    """``(steps + 1, n)``: the rows both backends spent in the world's first episode."""
+    last = np.where(warp.first < 0, 10**9, warp.first)
+    last = np.minimum(last, np.where(cpu.first < 0, 10**9, cpu.first))
+    rows = np.arange(warp.laser.shape[0])[:, None] - 1  # row t is after step t - 1
+    return rows <= last[None, :]
+
+
+def _yaw(root: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The heading of free-joint poses (x, y, z, w, qx, qy, qz)."""
+    w, x, y, z = root[..., 3], root[..., 4], root[..., 5], root[..., 6]
+    return np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+
+def _laser_rows(warp: Drives, cpu: Drives, seeds: list[int]) -> list[str]:
+    """The laser on every compared step, grazing rays apart; and the pose drift."""
+    compared = _compared(warp, cpu)
+    error = np.abs(warp.laser - cpu.laser)
+    error[~compared] = 0.0
+    outliers = np.argwhere(error > TOLERANCE)
+    scenes: dict[int, object] = {}
+    grazes = 0
+    for t, w, ray in outliers.tolist():
+        if w not in scenes:
+            env = gym.make("BubbleRob-v0")
+            env.reset(seed=seeds[w])
+            scenes[w] = env.unwrapped.scene  # type: ignore[attr-defined]
+        readings = (float(warp.laser[t, w, ray]), float(cpu.laser[t, w, ray]))
+        if grazing(scenes[w], warp.root[t, w], cpu.root[t, w], ray, readings):
+            grazes += 1
+            error[t, w, ray] = 0.0
+    rays = int(compared.sum()) * warp.laser.shape[2]
+    kept = error[compared]
+    position = np.linalg.norm(warp.root[..., :2] - cpu.root[..., :2], axis=-1)[compared]
+    turn = _yaw(warp.root) - _yaw(cpu.root)
+    heading = np.abs((turn + np.pi) % (2 * np.pi) - np.pi)[compared]
+    return [
+        f"| laser vs the CPU env, reset + {LASER_STEPS} steps, every world | {rays} rays, "
+        f"{len(seeds)} worlds | max {kept.max() * 1e3:.3f} mm over the non-grazing rays "
+        f"(99.9th percentile {np.quantile(kept, 0.999) * 1e3:.4f} mm); {len(outliers) - grazes} "
+        f"non-grazing rays over 1 mm; {grazes} grazing-edge rays over 1 mm |",
+        f"| pose drift over the same steps | {int(compared.sum())} states | position max "
+        f"{position.max() * 1e3:.4f} mm (median {np.median(position) * 1e3:.5f} mm), "
+        f"heading max {heading.max():.2e} rad (median {np.median(heading):.1e}) |",
+    ]
+
+
+def _outcome_rows(device: str | None, seeds: int, steps: int) -> list[str]:
+    """Every drive over the same seeds, one warp batch of ``3 * seeds`` worlds; the laser rows."""
+    seed_list = list(range(FIRST_SEED, FIRST_SEED + seeds)) * len(DRIVES)
+    actions = np.concatenate(
+        [drive_actions(drive, seeds, steps, seed=FIRST_SEED) for drive in DRIVES], axis=1
     )
-    both = (warp >= 0) & (cpu >= 0)
-    gap = np.abs(warp[both] - cpu[both])
-    return (
-        f"| {drive} drives, {steps} steps | {seeds} seeds, {int((cpu >= 0).sum())} CPU "
-        f"collisions | outcome equal {int(((warp >= 0) == (cpu >= 0)).sum())}/{seeds}; first "
-        f"contact same step {int((gap == 0).sum())}/{int(both.sum())}, within 1 step "
-        f"{int((gap <= 1).sum())}, largest gap {int(gap.max()) if gap.size else 0} steps |"
-    )
+    env = WarpVectorEnv(len(seed_list), device=device, max_episode_steps=steps, layout_bank=16)
+    warp = warp_drives(env, seed_list, actions, min(LASER_STEPS, steps))
+    cpu = cpu_drives(seed_list, actions, min(LASER_STEPS, steps), max_episode_steps=steps)
+    rows = []
+    for k, drive in enumerate(DRIVES):
+        part = slice(k * seeds, (k + 1) * seeds)
+        warp_first, cpu_first = warp.first[part], cpu.first[part]
+        both = (warp_first >= 0) & (cpu_first >= 0)
+        gap = np.abs(warp_first[both] - cpu_first[both])
+        equal = int(((warp_first >= 0) == (cpu_first >= 0)).sum())
+        rows.append(
+            f"| {drive} drives, {steps} steps | {seeds} seeds, {int((cpu_first >= 0).sum())} "
+            f"CPU collisions | outcome equal {equal}/{seeds}; first contact same step "
+            f"{int((gap == 0).sum())}/{int(both.sum())}, within 1 step {int((gap <= 1).sum())}, "
+            f"largest gap {int(gap.max()) if gap.size else 0} steps |"
+        )
+    return rows + _laser_rows(warp, cpu, seed_list)
 
 
 def main() -> None:
@@ -90,13 +156,16 @@ def main() -> None:
     parser.add_argument("--device", default=None, help="Warp device (default: Warp's)")
     parser.add_argument("--seeds", type=int, default=200, help="seeds per drive")
     parser.add_argument("--steps", type=int, default=200, help="steps per episode")
+    parser.add_argument("--head-on", type=int, default=20, help="head-on drives per kind")
     parser.add_argument("--quick", action="store_true", help="2 seeds, 20 steps (a smoke run)")
     args = parser.parse_args()
-    seeds, steps, per_kind = (2, 20, 1) if args.quick else (args.seeds, args.steps, 5)
+    seeds, steps, per_kind = (2, 20, 1) if args.quick else (args.seeds, args.steps, args.head_on)
     device = wp.get_device(args.device)
-    laser = _laser_rows(args.device, 1, 10) if args.quick else _laser_rows(args.device, 8, 60)
+    laser = (
+        _mj_multiray_row(args.device, 1, 10) if args.quick else _mj_multiray_row(args.device, 8, 60)
+    )
     rows = [laser, _head_on_row(args.device, per_kind)]
-    rows += [_outcome_row(args.device, drive, seeds, steps) for drive in DRIVES]
+    rows += _outcome_rows(args.device, seeds, steps)
     now = datetime.datetime.now(datetime.UTC)
     print(f"# backend='warp' against the CPU env, {now:%Y-%m-%d %H:%M} UTC")
     print(

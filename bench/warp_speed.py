@@ -2,6 +2,9 @@
 
 Usage: ``python bench/warp_speed.py [--device cuda:0] [--sizes 1024,4096,16384,65536]
 [--steps 50] [--json FILE]`` (prints Markdown). Needs the ``[warp]`` extra.
+``python bench/warp_speed.py --resets 65536``: only the host's part of a seeded reset of that many
+worlds (the arenas' table rows), by the numba draw and by the CPU env's own placement seed by seed
+(as before issue #41), and whether the two agree on every row.
 
 Rows, per N: the env's ``step`` with numpy outputs (what a CPU learner gets: observations,
 rewards and the full ``info`` on the host), with ``outputs="warp"`` (observations stay on the
@@ -24,9 +27,12 @@ from typing import Any
 
 import numpy as np
 import warp as wp
+from gymnasium.utils import seeding
 
 import bubblerob_env  # noqa: F401  (registers the env ids)
+from bubblerob_env.env import BubbleRobEnv
 from bubblerob_env.mjwarp import WarpVectorEnv
+from bubblerob_env.mjwarp.layouts import layout_rows, slot_geoms
 from bubblerob_env.vector import BubbleRobVectorEnv
 
 
@@ -74,13 +80,60 @@ def _cpu_batch(steps: int) -> float:
     return rate
 
 
+def _reset_rows(n: int) -> str:
+    """Host seconds (CPU time) for the table rows of ``n`` seeds, numba against the CPU env."""
+    scene = BubbleRobEnv().scene
+    layout_rows(scene, range(8))  # numba's compilation, cached on disk after the first run
+    start = time.process_time()
+    pos, _, size, rbound, root = layout_rows(scene, range(n))
+    fast = time.process_time() - start
+    cpu = BubbleRobEnv().scene  # the CPU env's placement, one seed at a time
+    model, data, adr = cpu.model, cpu.data, cpu.root_qpos
+    geoms = slot_geoms(cpu)
+    columns = {geom: column for column, geom in enumerate(geoms.tolist())}
+    placed, sizes = [], np.zeros((n, geoms.size, 3), np.float32)
+    rbounds, roots = np.zeros((n, geoms.size), np.float32), np.zeros((n, 7), np.float32)
+    cpu_pos = np.zeros_like(pos)
+    start = time.process_time()
+    for k in range(n):
+        cpu.place_layout(seeding.np_random(k)[0])
+        cpu_pos[k], sizes[k], rbounds[k] = (
+            data.mocap_pos,
+            model.geom_size[geoms],
+            model.geom_rbound[geoms],
+        )
+        roots[k] = data.qpos[adr : adr + 7]
+        placed.append([columns[geom] for geom in cpu.slots.placed])
+    slow = time.process_time() - start
+    same = sum(
+        np.array_equal(pos[k], cpu_pos[k])
+        and np.array_equal(size[k, used], sizes[k, used])
+        and np.array_equal(rbound[k, used], rbounds[k, used])
+        and np.array_equal(root[k], roots[k])
+        for k, used in enumerate(placed)
+    )
+    return f"| {n} | {slow:.1f} s | {fast:.2f} s | {slow / fast:.0f}x | {same}/{n} rows equal |"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--device", default=None, help="Warp device (default: Warp's)")
     parser.add_argument("--sizes", default="1024,4096,16384,65536", help="N, comma-separated")
     parser.add_argument("--steps", type=int, default=50, help="timed steps per row")
     parser.add_argument("--json", default=None, help="also write the numbers to this file")
+    parser.add_argument("--resets", type=int, help="only time the rows of this many seeds")
     args = parser.parse_args()
+    if args.resets:
+        print(
+            f"# seeded reset's host part, {datetime.datetime.now(datetime.UTC):%Y-%m-%d %H:%M} UTC"
+        )
+        print(
+            f"host: {platform.machine()}, {os.cpu_count()} cores, load {os.getloadavg()[0]:.1f}\n"
+        )
+        print("| worlds | CPU env, seed by seed | numba draw | faster | same arenas |")
+        print("|---|---|---|---|---|")
+        print(_reset_rows(args.resets))
+        return
     sizes = [int(size) for size in args.sizes.split(",")]
     device = wp.get_device(args.device)
     cpu = _cpu_batch(args.steps)

@@ -88,7 +88,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=DEFAULT_VEC_ENV,
         help="step the envs in this process (dummy), one subprocess each (subproc), or as one "
         "native batch on threads (batched; BubbleRob-v0 only); worlds: N_ENVS worlds of --robots "
-        "robots, one slot per robot, for one policy shared by all",
+        "robots, one slot per robot, for one policy shared by all; warp: N_ENVS MuJoCo Warp "
+        "worlds on Warp's default device (a GPU where there is one), evaluated on the CPU env",
     )
     parser.add_argument(
         "--robots",

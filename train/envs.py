@@ -5,7 +5,9 @@ default: with small, fast envs on a 2-core machine the inter-process round trips
 ``SubprocVecEnv`` cost more than stepping them here), ``subproc`` (one subprocess each) or
 ``batched`` (:class:`train.sb3_vec.BubbleRobSB3VecEnv`, the same episodes) or ``worlds``
 (:class:`train.worlds_vec.WorldsSB3VecEnv`: ``n_envs`` worlds of ``robots`` robots, a slot per
-robot, for one policy shared by all; evaluated on single-robot episodes). The evaluation env
+robot, for one policy shared by all; evaluated on single-robot episodes) or ``warp``
+(:class:`train.sb3_warp.WarpSB3VecEnv`: ``n_envs`` MuJoCo Warp worlds on Warp's default device,
+a GPU where there is one; evaluated on the CPU env, where the policy will run). The evaluation env
 has one env per validation episode (``train/validation.py``), seeded from the first validation
 seed, and the same wrapper chain as training's.
 """
@@ -28,10 +30,11 @@ __all__ = [
     "non_image_keys",
     "single_robot_eval_envs",
     "training_envs",
+    "warp_envs",
     "worlds_envs",
 ]
 
-VEC_ENVS = ("dummy", "subproc", "batched", "worlds")
+VEC_ENVS = ("dummy", "subproc", "batched", "worlds", "warp")
 DEFAULT_VEC_ENV = "dummy"
 """Step the envs in the training process: on 2 cores, faster than subprocesses for this env."""
 
@@ -90,6 +93,10 @@ def _unwrapped_envs(
     if vec_env == "worlds":  # the shared policy is evaluated driving one robot
         spec = config.get("env_wrapper")
         envs = worlds_envs(env_id, count, robots, seed, env_kwargs, spec)
+        return envs, single_robot_eval_envs(env_id, eval_episodes, env_kwargs, spec)
+    if vec_env == "warp":  # evaluated on the CPU env, where the policy will run
+        spec = config.get("env_wrapper")
+        envs = warp_envs(env_id, count, seed, env_kwargs, spec)
         return envs, single_robot_eval_envs(env_id, eval_episodes, env_kwargs, spec)
     envs = make_vec_env(
         env_id,
@@ -190,6 +197,26 @@ def worlds_envs(
     if spec.entry_point != "bubblerob_env.env:BubbleRobEnv":
         raise ValueError(f"--vec-env worlds steps BubbleRob-v0 or PioneerP3DX-v0, not {env_id!r}")
     envs: Any = WorldsSB3VecEnv(num_worlds, robots, **{**spec.kwargs, **env_kwargs})
+    envs.seed(seed)
+    return batch_wrapped(envs, env_id, env_kwargs, env_wrapper)
+
+
+def warp_envs(
+    env_id: str, count: int, seed: int, env_kwargs: dict[str, Any], env_wrapper: Any = None
+) -> Any:
+    """``--vec-env warp``: ``count`` MuJoCo Warp worlds on Warp's default device.
+
+    World ``i`` is seeded ``seed + i`` (the CPU env's arena for that seed); ``env_wrapper`` is
+    applied as ``--vec-env batched`` applies it.
+    """
+    import gymnasium as gym
+
+    from train.sb3_warp import WarpSB3VecEnv
+
+    spec = gym.spec(env_id)
+    if spec.entry_point != "bubblerob_env.env:BubbleRobEnv":
+        raise ValueError(f"--vec-env warp steps BubbleRob-v0 or PioneerP3DX-v0, not {env_id!r}")
+    envs: Any = WarpSB3VecEnv(count, **{**spec.kwargs, **env_kwargs})
     envs.seed(seed)
     return batch_wrapped(envs, env_id, env_kwargs, env_wrapper)
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import copy
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import gymnasium as gym
@@ -27,11 +28,16 @@ from bubblerob_env.robots import BUBBLEROB
 
 __all__ = [
     "DRIVES",
+    "Drives",
+    "cpu_drives",
     "cpu_first_contact",
     "cpu_laser",
     "drive_actions",
     "first_contacts",
+    "grazing",
     "head_on_seeds",
+    "ray_on_state",
+    "warp_drives",
 ]
 
 DRIVES = ("straight", "curve", "random")
@@ -146,3 +152,114 @@ def first_contacts(
         if ((first >= 0) | truncated).all():
             break
     return first
+
+
+@dataclass(frozen=True)
+class Drives:
+    """Open-loop drives from seeded resets: first contacts, and the scans and poses early on.
+
+    ``first``: each world's first-contact step (-1: none); ``laser`` and ``root``: its scans and
+    free-joint poses on the reset and the ``laser_steps`` steps after it (``(laser_steps + 1, n,
+    rays)`` and ``(laser_steps + 1, n, 7)``); rows after a world's first contact are not its
+    episode's, and comparisons leave them out.
+    """
+
+    first: NDArray[np.int64]
+    laser: NDArray[np.float32]
+    root: NDArray[np.float64]
+
+
+def warp_drives(
+    env: WarpVectorEnv, seeds: list[int], actions: NDArray[np.float32], laser_steps: int
+) -> Drives:
+    """:func:`first_contacts`, keeping the scans and poses of the first ``laser_steps`` steps."""
+    obs, _ = env.reset(seed=seeds)
+    adr = env.scene.root_qpos
+    lasers, roots = [obs["laser"]], [env.worlds.data.qpos.numpy()[:, adr : adr + 7].copy()]
+    first = np.full(len(seeds), -1, dtype=np.int64)
+    for step, action in enumerate(actions):
+        obs, _, terminated, truncated, _ = env.step(action)
+        if step < laser_steps:
+            lasers.append(obs["laser"])
+            roots.append(env.worlds.data.qpos.numpy()[:, adr : adr + 7].copy())
+        first[(first < 0) & terminated] = step
+        if step >= laser_steps and ((first >= 0) | truncated).all():
+            break
+    return Drives(first, np.stack(lasers), np.stack(roots).astype(np.float64))
+
+
+def cpu_drives(
+    seeds: list[int], actions: NDArray[np.float32], laser_steps: int, **kwargs: Any
+) -> Drives:
+    """The same drives in ``gym.make``'s env, one env per world (the CPU batch's episodes)."""
+    n = len(seeds)
+    first = np.full(n, -1, dtype=np.int64)
+    lasers = np.zeros((laser_steps + 1, n, 0), dtype=np.float32)
+    roots = np.zeros((laser_steps + 1, n, 7))
+    for i, seed in enumerate(seeds):
+        env = gym.make("BubbleRob-v0", **kwargs)
+        obs, _ = env.reset(seed=seed)
+        if lasers.shape[2] == 0:
+            lasers = np.zeros((laser_steps + 1, n, obs["laser"].size), dtype=np.float32)
+        scene = env.unwrapped.scene  # type: ignore[attr-defined]
+        adr = scene.root_qpos
+        lasers[0, i], roots[0, i] = obs["laser"], scene.data.qpos[adr : adr + 7]
+        for step in range(actions.shape[0]):
+            obs, _, terminated, truncated, _ = env.step(actions[step, i])
+            if step < laser_steps:
+                lasers[step + 1, i], roots[step + 1, i] = (
+                    obs["laser"],
+                    scene.data.qpos[adr : adr + 7],
+                )
+            if terminated:
+                first[i] = step
+            if terminated or truncated:
+                break
+        env.close()
+    return Drives(first, lasers, roots)
+
+
+def ray_on_state(scene: Any, root: NDArray[np.float64], ray: int, turn: float = 0.0) -> float:
+    """``mj_ray`` of laser ray ``ray`` (turned by ``turn`` rad) with the robot at ``root``.
+
+    ``scene``: a CPU env's scene reset with the world's seed (its obstacles); ``root``: the
+    free joint's seven numbers. The reading as the env reports it (``range_max`` for a miss).
+    """
+    model = scene.model
+    data = mujoco.MjData(model)
+    data.qpos[:] = scene.data.qpos
+    data.mocap_pos[:], data.mocap_quat[:] = scene.data.mocap_pos, scene.data.mocap_quat
+    adr = scene.root_qpos
+    data.qpos[adr : adr + 7] = root
+    mujoco.mj_kinematics(model, data)
+    site = model.site(names.LASER_SITE).id
+    spec = scene.laser_spec
+    angle = float(spec.angles()[ray]) + turn
+    direction = data.site_xmat[site].reshape(3, 3) @ np.array([math.cos(angle), math.sin(angle), 0])
+    group = np.zeros(mujoco.mjNGROUP, dtype=np.uint8)
+    group[names.OBSTACLE_GROUP] = 1
+    geomid = np.zeros(1, dtype=np.int32)
+    dist = mujoco.mj_ray(model, data, data.site_xpos[site], direction, group, 1, -1, geomid)
+    return float(dist) if 0 <= dist < spec.range_max else float(spec.range_max)
+
+
+def grazing(
+    scene: Any,
+    warp_root: NDArray[np.float64],
+    cpu_root: NDArray[np.float64],
+    ray: int,
+    readings: tuple[float, float],
+    turn: float = 1e-5,
+    tolerance: float = 1e-3,
+) -> bool:
+    """Whether a ray the two backends read apart grazes an edge, not a wrong cast or state.
+
+    Both hold: ``mj_ray`` on the warp state gives the warp reading (its caster is right for its
+    pose), and the CPU reading jumps by more than ``tolerance`` when the ray turns by ``turn``
+    rad either way (a discontinuity within the backends' pose drift). ``readings``: (warp, CPU).
+    """
+    warp_reading, cpu_reading = readings
+    if abs(ray_on_state(scene, warp_root, ray) - warp_reading) > tolerance:
+        return False
+    turned = (ray_on_state(scene, cpu_root, ray, t) for t in (-turn, turn))
+    return any(abs(reading - cpu_reading) > tolerance for reading in turned)

@@ -188,7 +188,12 @@ def _run_script(path: Path, argv: list[str], capsys: pytest.CaptureFixture[str])
         ),
         (
             ["warp_equivalence.py", "--quick"],
-            ["device: cpu", "| laser vs mj_multiRay", "wall 1/1, cylinder 1/1, box 1/1"],
+            [
+                "device: cpu",
+                "| laser vs mj_multiRay",
+                "wall 1/1, cylinder 1/1, box 1/1",
+                "| laser vs the CPU env",
+            ],
         ),
     ],
 )
