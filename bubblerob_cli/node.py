@@ -77,7 +77,21 @@ def add_subcommands(subparsers: Any) -> None:
         default=os.environ.get("ROS_NAMESPACE", ""),
         help="prefix for this robot's topics (default: $ROS_NAMESPACE)",
     )
-    node.add_argument("--topics", choices=sorted(PRESETS), default="default", help="topic names")
+    node.add_argument(
+        "--topics",
+        choices=[*sorted(PRESETS), "tutorial"],
+        default="default",
+        help="topic names; tutorial: with --robots, each robot's names end in its index "
+        "(/leftMotorSpeed0, as the first tutorial's suffix) instead of a /robot_i namespace",
+    )
+    node.add_argument(
+        "--robots",
+        type=int,
+        default=1,
+        metavar="N",
+        help="N robots in one world (one /clock; robot i's topics under /robot_i, frames "
+        "robot_i/...; default 1: today's names)",
+    )
     node.add_argument("--camera", action="store_true", help="publish the camera (64x64)")
     node.add_argument(
         "--camera-size",
@@ -212,6 +226,12 @@ def _node(args: argparse.Namespace) -> int:
     problem = _usage_error(args)
     if problem is not None:
         fail("node", problem)
+    if args.robots != 1:
+        from bubblerob_cli.node_robots import run_robots
+
+        return run_robots(args)
+    if args.topics == "tutorial":
+        args.topics = "default"  # a lone robot: the tutorial's names are the default ones
     if args.foxglove:
         require_extra("foxglove", "bubblerob node --foxglove")
     kwargs = _env_kwargs(args)

@@ -79,6 +79,7 @@ def test_names_frames_and_exactly_one_clock():
         assert f"/robot_{k}/cmd_vel" in backend.handlers
         assert f"/robot_{k}/leftMotorSpeed" in backend.handlers
         assert f"/robot_{k}/laser_switch" in backend.handlers
+        assert f"/robot_{k}/cmd_vel" not in backend.advertised  # an input: never echoed
     assert (
         "/triggerNextStep" in backend.handlers
         and "/robot_0/triggerNextStep" not in backend.handlers

@@ -39,7 +39,14 @@ from bubblerob_env.ros.live.controls import (
     ControlTopics,
     decode_control,
 )
-from bubblerob_env.ros.live.node import PAUSED, RUNNING, STOPPED, TWIST_LIMIT, NodeConfig
+from bubblerob_env.ros.live.node import (
+    COMMAND_KEYS,
+    PAUSED,
+    RUNNING,
+    STOPPED,
+    TWIST_LIMIT,
+    NodeConfig,
+)
 from bubblerob_env.ros.live.sink import LiveSink
 from bubblerob_env.ros.messages.distros import deserialize, get_distro, serialize, typestore
 from bubblerob_env.ros.messages.robots import robot_frame_prefix, robot_topics
@@ -176,8 +183,10 @@ class MultiSimNode:
 
     # -- wiring ---------------------------------------------------------------------------------
 
-    def _channel(self, k: int, agent: str, topics: Topics, naming: str) -> RobotChannel:
+    def _channel(self, k: int, agent: str, named: Topics, naming: str) -> RobotChannel:
         specs = self.env.world.scene.specs
+        commands = {key: name for key, name in named.resolved().items() if key in COMMAND_KEYS}
+        topics = named.replace(**dict.fromkeys(COMMAND_KEYS))  # inputs here, not published
         fanout = MessageFanout(specs, topics)
         converter = fanout.serializer(self.backend.distro).converter
         converter.frame_prefix = robot_frame_prefix(k)
@@ -203,20 +212,20 @@ class MultiSimNode:
             "laser": [resolved[k] for k in ("scan",) if k in resolved],
             "camera": [resolved[k] for k in ("image", "camera_info") if k in resolved],
         }
-        self._subscribe_robot(channel, resolved)
+        self._subscribe_robot(channel, commands)
         return channel
 
     def _serialize(self, msgtype: str, **fields: Any) -> bytes:
         distro = self.backend.distro
         return serialize(distro, typestore(distro).types[msgtype](**fields), msgtype)
 
-    def _subscribe_robot(self, channel: RobotChannel, resolved: dict[str, str]) -> None:
+    def _subscribe_robot(self, channel: RobotChannel, commands: dict[str, str]) -> None:
         s = channel.state
-        if "cmd_vel" in resolved:
-            self._listen(resolved["cmd_vel"], "twist", lambda v: s.command_twist(*v), s)
+        if "cmd_vel" in commands:
+            self._listen(commands["cmd_vel"], "twist", lambda v: s.command_twist(*v), s)
         for side, key in enumerate(("left_motor_speed", "right_motor_speed")):
-            if key in resolved:
-                self._listen(resolved[key], "float32", _wheel(s, side), s)
+            if key in commands:
+                self._listen(commands[key], "float32", _wheel(s, side), s)
         for sensor in ("laser", "camera"):
             topic = channel.controls[f"{sensor}_switch"]
             self._listen(topic, "bool", _switch(s, sensor), s)
