@@ -1,0 +1,116 @@
+"""``LiveNavigation`` in-process (no ROS): goals in ``odom`` moved by ``map -> odom``, bad ones.
+
+The live tests (``test_nav_live.py``) see the node from real clients with ``map -> odom`` near
+the identity; here a fake backend and a fake localiser give it a quarter turn, so that the
+rotation is checked against the formula in the test.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from bubblerob_env.ros.live import LiveBackend, RosLivePublisher
+from bubblerob_env.ros.live.backend import Publish, RawCallback
+from bubblerob_env.ros.live.navigation import GOAL_INPUT, LiveNavigation
+from bubblerob_env.ros.messages.distros import deserialize, serialize, typestore
+
+DISTRO = "noetic"
+GOAL_TYPE = "geometry_msgs/msg/PoseStamped"
+
+
+class Backend(LiveBackend):
+    ros_version = 1
+    distro = DISTRO
+
+    def __init__(self) -> None:
+        self.sent: dict[str, list[bytes]] = {}
+        self.callbacks: dict[str, RawCallback] = {}
+        self.lines: list[str] = []
+
+    def advertise(self, topic: str, msgtype: str, latched: bool = False) -> Publish:
+        return lambda data: self.sent.setdefault(topic, []).append(bytes(data))
+
+    def subscribe(self, topic: str, msgtype: str, callback: RawCallback) -> None:
+        self.callbacks[topic] = callback
+
+    def ok(self) -> bool:
+        return True
+
+    def shutdown(self, reason: str = "done") -> None:
+        pass
+
+    def log(self, level: str, text: str) -> None:
+        self.lines.append(text)
+
+
+class Filter:
+    def map_to_odom(self) -> np.ndarray:
+        return np.array([0.5, -0.2, math.pi / 2])
+
+
+class Localizer:
+    filter = Filter()
+    pose = (0.1, -1.3, 0.3)
+
+
+def goal_bytes(x: float, y: float, frame: str) -> bytes:
+    types = typestore(DISTRO).types
+    header = types["std_msgs/msg/Header"](
+        seq=0, stamp=types["builtin_interfaces/msg/Time"](sec=0, nanosec=0), frame_id=frame
+    )
+    pose = types["geometry_msgs/msg/Pose"](
+        position=types["geometry_msgs/msg/Point"](x=x, y=y, z=0.0),
+        orientation=types["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0),
+    )
+    return serialize(DISTRO, types[GOAL_TYPE](header=header, pose=pose), GOAL_TYPE)
+
+
+def started() -> tuple[Backend, LiveNavigation, list[tuple[str, str, str]]]:
+    backend = Backend()
+    env = gym.make("BubbleRobNav-v0", num_obstacles=[0, 0], start_pose=[0.0, -1.4, 0.0])
+    publisher = RosLivePublisher(env, backend, start_time=1_700_000_000)
+    warned: list[tuple[str, str, str]] = []
+    base: Any = env.unwrapped
+    navigation = LiveNavigation(base, publisher, publisher.topics, lambda *w: warned.append(w))
+    publisher.reset(seed=0)
+    return backend, navigation, warned
+
+
+def test_a_goal_in_odom_is_moved_by_map_to_odom_and_planned_from_the_estimate():
+    backend, navigation, warned = started()
+    backend.callbacks[GOAL_INPUT](goal_bytes(1.0, 0.3, "odom"), None, "test")
+    navigation.apply(Localizer())  # type: ignore[arg-type]
+    assert not warned
+    # map = (0.5, -0.2) + R(90 deg) (1.0, 0.3) = (0.5 - 0.3, -0.2 + 1.0)
+    goal = deserialize(DISTRO, backend.sent["/move_base/current_goal"][-1], GOAL_TYPE)
+    placed = (goal.pose.position.x, goal.pose.position.y)
+    assert np.allclose(placed, (0.2, 0.8), atol=1e-12), placed
+    plan = deserialize(DISTRO, backend.sent["/plan"][-1], "nav_msgs/msg/Path")
+    first = plan.poses[0].pose.position
+    assert (first.x, first.y) == (0.1, -1.3)  # the estimate, not the truth (0, -1.4)
+    reached = backend.sent["/goal_reached"]
+    assert deserialize(DISTRO, reached[-1], "std_msgs/msg/Bool").data is False
+    assert navigation.goals == 1
+
+
+def test_bad_goals_are_one_warning_each_and_change_nothing():
+    backend, navigation, warned = started()
+    sent = len(backend.sent["/move_base/current_goal"])
+    callback = backend.callbacks[GOAL_INPUT]
+    callback(b"\x01\x02\x03", None, "a")  # too short for the type
+    callback(goal_bytes(0.0, 0.0, "map"), "geometry_msgs/Twist", "b")
+    callback(goal_bytes(0.0, 0.0, "world"), None, "c")
+    callback(goal_bytes(math.nan, 0.0, "map"), None, "d")
+    navigation.apply(None)
+    callback(goal_bytes(1.95, 0.0, "map"), None, "e")
+    navigation.apply(None)
+    reasons = [reason for _, reason, _ in warned]
+    assert reasons == ["malformed", "wrong type", "wrong-frame", "bad goal", "bad goal"], warned
+    assert "frame_id 'world'" in warned[2][2] and "'map' or 'odom'" in warned[2][2]
+    assert "goal (nan, 0.0) is outside the arena" in warned[3][2]
+    assert "inside an obstacle or a wall" in warned[4][2]
+    assert len(backend.sent["/move_base/current_goal"]) == sent and navigation.goals == 0
