@@ -114,3 +114,36 @@ def test_bad_goals_are_one_warning_each_and_change_nothing():
     assert "goal (nan, 0.0) is outside the arena" in warned[3][2]
     assert "inside an obstacle or a wall" in warned[4][2]
     assert len(backend.sent["/move_base/current_goal"]) == sent and navigation.goals == 0
+
+
+def test_with_a_driver_wheel_commands_are_unused_and_said_so_once():
+    from bubblerob_env.ros.live.node import NodeConfig, SimNode
+
+    backend = Backend()
+    env = gym.make("BubbleRobNav-v0", num_obstacles=[0, 0], action_type="wheels")
+    seen: list[Any] = []
+
+    def driver(obs: Any, episode_start: bool) -> np.ndarray:
+        seen.append((obs["goal"].copy(), episode_start))
+        return np.array([0.3, 0.3], dtype=np.float32)
+
+    config = NodeConfig(rate_factor=0.0, watchdog=0.0, start_time=1_700_000_000)
+    node = SimNode(env, backend, config=config, driver=driver)
+    types = typestore(DISTRO).types
+    vector = types["geometry_msgs/msg/Vector3"]
+    twist = types["geometry_msgs/msg/Twist"](
+        linear=vector(x=-0.2, y=0.0, z=0.0), angular=vector(x=0.0, y=0.0, z=0.0)
+    )
+    backend.callbacks["/cmd_vel"](
+        serialize(DISTRO, twist, "geometry_msgs/msg/Twist"), "geometry_msgs/Twist", "t"
+    )
+    assert node.run(max_steps=3) == 3
+    node.close()
+    assert [start for _, start in seen] == [True, False, False]
+    assert all(goal.shape == (2,) for goal, _ in seen)
+    actions = [deserialize(DISTRO, raw, "std_msgs/msg/Float64MultiArray").data
+               for raw in backend.sent["/bubblerob/action"]]  # fmt: skip
+    assert len(actions) == 3 and np.allclose(actions, np.float32(0.3), rtol=0, atol=0)
+    unused = [line for line in backend.lines if "wheel command" in line]
+    assert unused == ["ignoring a wheel command message on /cmd_vel: --policy drives the robot: "
+                      "commands are unused"], backend.lines  # fmt: skip

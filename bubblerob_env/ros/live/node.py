@@ -353,6 +353,9 @@ class SimNode:
         action = self.state.action(self.sim_time)
         if self.driver is None or self._obs is None:
             return action
+        if action.any():  # a wheel command came in while a policy drives: say it is not used
+            topic = self.command_names.get("cmd_vel", "the wheel-command topics")
+            self._reject(topic, "wheel command", "--policy drives the robot: commands are unused")
         obs, pose = self._obs, None if self.localizer is None else self.localizer.pose
         if self.navigation is not None and pose is not None:
             obs = self.navigation.observed(obs, pose)
