@@ -13,13 +13,16 @@ __all__ = ["run_robots"]
 
 def run_robots(args: argparse.Namespace) -> int:
     """Run ``bubblerob node`` with ``--robots N``; exit status (bad input: one line, exit 2)."""
-    from bubblerob_env.ros.live.multi_node import MultiSimNode
-    from bubblerob_env.ros.live.node import NodeConfig
-    from bubblerob_env.ros.messages.topics import topics_preset
+    from bubblerob_env.extras import require_extra
 
     refused = _refused(args)
     if refused:
         fail("node", refused)
+    require_extra("multi", "bubblerob node --robots")
+    from bubblerob_env.ros.live.multi_node import MultiSimNode
+    from bubblerob_env.ros.live.node import NodeConfig
+    from bubblerob_env.ros.messages.topics import topics_preset
+
     env, kwargs = _world(args)
     naming = "tutorial" if args.topics == "tutorial" else "namespace"
     try:
@@ -62,13 +65,11 @@ def _refused(args: argparse.Namespace) -> str | None:
     """Why ``--robots`` cannot run with the other options, in one line, or ``None``."""
     if args.robots < 1:
         return f"--robots must be at least 1, got {args.robots}"
-    for option, given in (
-        ("--localize", args.localize),
-        ("--foxglove", args.foxglove),
-        ("--namespace", args.namespace),
-    ):
+    if args.namespace:
+        return "--namespace is for one robot: with --robots each robot gets its own (robot_i)"
+    for option, given in (("--localize", args.localize), ("--foxglove", args.foxglove)):
         if given:
-            return f"{option} is for one robot; with --robots each robot gets its namespace"
+            return f"{option} runs one robot: leave it out with --robots {args.robots}"
     if args.topics not in ("default", "tutorial"):
         return f"--topics {args.topics} is one robot's; with --robots use default or tutorial"
     return None
@@ -77,9 +78,7 @@ def _refused(args: argparse.Namespace) -> str | None:
 def _world(args: argparse.Namespace) -> tuple[Any, dict[str, Any]]:
     """``parallel_env`` of ``--env``'s robot and the single env's kwargs; bad input: one line."""
     import bubblerob_env
-    from bubblerob_env.extras import require_extra
 
-    require_extra("multi", "bubblerob node --robots")
     robots = {"BubbleRob-v0": "bubblerob", "PioneerP3DX-v0": "pioneer_p3dx"}
     if args.env not in robots:
         fail("node", f"--robots runs {' or '.join(robots)}, got --env {args.env}")

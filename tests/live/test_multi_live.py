@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 import subprocess
+import time
 
 from live_helpers import requires_ros, stop
 
@@ -50,6 +51,14 @@ def turned(a: dict, b: dict) -> float:
     return abs(math.remainder(b["yaw"] - a["yaw"], math.tau))
 
 
+def turning(read) -> None:
+    """Until the robot that ``read()`` reads turns (a new publisher's first commands are here)."""
+    deadline = time.monotonic() + 20
+    while read()["wz"] < 1.0:
+        assert time.monotonic() < deadline, "robot_1 never turned"
+        time.sleep(0.2)
+
+
 def test_one_clock_and_each_robot_its_own_cmd_vel_and_watchdog(master, start_node):
     node = start_node("--robots", "2", "--seed", "3", "--watchdog", "0.5")
     assert len(clock_publishers(master)) == 1
@@ -59,7 +68,7 @@ def test_one_clock_and_each_robot_its_own_cmd_vel_and_watchdog(master, start_nod
     )
     after0 = odom(master, "robot_0")
     assert turned(before1, spun["moving"]) > 0.5 and spun["moving"]["wz"] > 1.0
-    assert abs(spun["idle"]["wz"]) < 0.05, (spun, node.output)  # robot_1's watchdog stopped it
+    assert abs(spun["idle"]["wz"]) < 0.05, spun  # robot_1's watchdog stopped it
     assert turned(before0, after0) < 0.01 and abs(after0["wz"]) < 0.01  # robot_0 never moved
     # robot_1 keeps getting commands while robot_0's stop: only robot_0's watchdog trips.
     keep = master.popen(
@@ -71,6 +80,7 @@ def test_one_clock_and_each_robot_its_own_cmd_vel_and_watchdog(master, start_nod
         stderr=subprocess.DEVNULL,
     )  # fmt: skip
     try:
+        turning(lambda: odom(master, "robot_1"))
         driven = master.client(
             "--ns", "/robot_0", "drive", "--angular", str(SPIN), "--seconds", "1.0",
             "--idle", "1.5",

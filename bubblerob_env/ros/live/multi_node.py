@@ -23,12 +23,11 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from types import SimpleNamespace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from bubblerob_env.mapping import episode_grid, has_arena
-from bubblerob_env.multi.parallel import MultiRobotEnv
 from bubblerob_env.ros.episodes import EpisodeStream, jsonable, start_time_ns
 from bubblerob_env.ros.fanout import MessageFanout
 from bubblerob_env.ros.live.backend import LiveBackend, Publish, RawCallback
@@ -51,6 +50,9 @@ from bubblerob_env.ros.live.sink import LiveSink
 from bubblerob_env.ros.messages.distros import deserialize, get_distro, serialize, typestore
 from bubblerob_env.ros.messages.robots import robot_frame_prefix, robot_topics
 from bubblerob_env.ros.messages.topics import MSGTYPES, Topics, namespace_prefix
+
+if TYPE_CHECKING:  # PettingZoo (the [multi] extra) is imported only where a world is made
+    from bubblerob_env.multi.parallel import MultiRobotEnv
 
 __all__ = ["MultiSimNode", "RobotChannel"]
 
