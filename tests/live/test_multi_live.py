@@ -119,3 +119,26 @@ def test_tutorial_names_carry_the_robot_index(master, start_node):
         assert {f"/simTime{k}", f"/scan{k}", f"/odom{k}"} <= topics
     assert "/clock" in topics and "/triggerNextStep" in topics
     assert not any(t.startswith("/robot_") for t in topics)
+
+
+LAUNCH = """
+import sys
+import roslaunch.config
+sys.argv = ["roslaunch", *sys.argv[1:]]
+config = roslaunch.config.load_config_default(["bubblerob.launch"], None)
+for node in config.nodes:
+    print(node.name, node.namespace, node.args)
+"""
+
+
+def test_launch_file_takes_robots(master):
+    from bubblerob_env.ros.live.node import LAUNCH_DIR
+
+    env = {"PATH": "/usr/bin:/bin", "HOME": "/tmp", "ROS_PACKAGE_PATH": str(LAUNCH_DIR)}
+    result = subprocess.run(
+        ["/usr/bin/python3", "-c", LAUNCH, "robots:=3", "rviz:=true"],
+        env=env, cwd=LAUNCH_DIR, capture_output=True, text=True, timeout=60, check=True,
+    )  # fmt: skip
+    node, rviz = result.stdout.splitlines()
+    assert node.endswith("--robots 3")
+    assert rviz.split()[:2] == ["rviz", "/robot_0/"] and rviz.endswith("-f map")
