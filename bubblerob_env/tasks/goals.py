@@ -25,6 +25,7 @@ __all__ = [
     "NavProblem",
     "clearance_grid",
     "distance_field",
+    "draw_goal",
     "draw_problem",
     "line_of_sight",
     "path_length",
@@ -223,9 +224,27 @@ def draw_problem(
     """
     grid = clearance_grid(layout, arena_size, robot_radius, resolution)
     start = (layout.start_pose[0], layout.start_pose[1])
+    return draw_goal(rng, grid, start, min_distance)
+
+
+def draw_goal(
+    rng: np.random.Generator,
+    grid: Grid,
+    start: tuple[float, float],
+    min_distance: float,
+    taken: tuple[tuple[float, float], ...] = (),
+    spacing: float = 0.0,
+) -> NavProblem | None:
+    """A goal drawn uniformly among the free cells of ``grid`` reachable from ``start``.
+
+    At least ``min_distance`` m from the start and ``spacing`` m from every point of ``taken``
+    (other robots' goals), in a straight line; None when no cell qualifies.
+    """
     dist, parent = distance_field(grid, start)
     centres = _cell_centres(grid, np.arange(dist.size, dtype=np.int64))
     far = np.hypot(centres[:, 0] - start[0], centres[:, 1] - start[1]) >= min_distance
+    for x, y in taken:
+        far &= np.hypot(centres[:, 0] - x, centres[:, 1] - y) >= spacing
     candidates = np.flatnonzero(np.isfinite(dist) & far)
     if candidates.size == 0:
         return None

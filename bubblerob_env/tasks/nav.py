@@ -10,15 +10,10 @@ from gymnasium import spaces
 from numpy.typing import NDArray
 
 from bubblerob_env.batch.common import Observation
-from bubblerob_env.checks import (
-    MAX_WEIGHT,
-    check_bounded,
-    check_positive,
-    unexpected_kwargs_error,
-)
+from bubblerob_env.checks import unexpected_kwargs_error
 from bubblerob_env.config import ARGUMENTS
 from bubblerob_env.env import BubbleRobEnv
-from bubblerob_env.mapping import DEFAULT_RESOLUTION, FREE, RESOLUTION_RANGE, Grid, has_arena
+from bubblerob_env.mapping import DEFAULT_RESOLUTION, FREE, Grid, has_arena
 from bubblerob_env.tasks.goals import (
     NavProblem,
     cell_of,
@@ -27,17 +22,20 @@ from bubblerob_env.tasks.goals import (
     path_length,
     plan_path,
 )
+from bubblerob_env.tasks.nav_rules import (
+    NAV_ARGUMENTS,
+    WANDERING_PARTS,
+    NavSettings,
+    goal_reading,
+    spaces_with_goal,
+    with_goal,
+)
 
-__all__ = ["NAV_INFO_KEYS", "BubbleRobNavEnv"]
+__all__ = ["NAV_INFO_KEYS", "BubbleRobNavEnv", "check_goal", "planned_problem"]
 
 NAV_INFO_KEYS = ("goal", "goal_distance", "shortest_path_length", "distance_driven")
 """What every ``info`` of a Nav env adds (with ``is_success``: the goal reached)."""
 _LAYOUT_TRIES = 20  # layouts drawn before giving up on finding a goal (never needed in tests)
-_WANDERING_PARTS = ("reward_forward", "reward_spin", "reward_clearance")
-_TASK_ARGUMENTS = (
-    "goal_radius", "min_goal_distance", "progress_reward_weight", "arrival_reward", "time_cost",
-    "grid_resolution",
-)  # fmt: skip
 
 
 class BubbleRobNavEnv(BubbleRobEnv):
@@ -99,26 +97,22 @@ class BubbleRobNavEnv(BubbleRobEnv):
         """The task's arguments (see Arguments); every other one goes to :class:`BubbleRobEnv`."""
         unknown = [name for name in env_kwargs if name not in ARGUMENTS]
         if unknown:
-            valid = [*_TASK_ARGUMENTS, *ARGUMENTS]
+            valid = [*NAV_ARGUMENTS, *ARGUMENTS]
             raise unexpected_kwargs_error("BubbleRobNavEnv.__init__", unknown, valid)
-        self.goal_radius = _check_metres("goal_radius", goal_radius)
-        self.min_goal_distance = _check_metres("min_goal_distance", min_goal_distance)
-        if self.goal_radius >= self.min_goal_distance:
-            raise ValueError(
-                f"goal_radius {goal_radius!r} must be smaller than min_goal_distance "
-                f"{min_goal_distance!r}: a goal must not be reached where the robot starts"
-            )
-        self.progress_reward_weight, self.arrival_reward, self.time_cost = (
-            check_bounded(label, value, -MAX_WEIGHT, MAX_WEIGHT)
-            for label, value in (
-                ("progress_reward_weight", progress_reward_weight),
-                ("arrival_reward", arrival_reward),
-                ("time_cost", time_cost),
-            )
+        self.settings = NavSettings.checked(
+            goal_radius=goal_radius,
+            min_goal_distance=min_goal_distance,
+            progress_reward_weight=progress_reward_weight,
+            arrival_reward=arrival_reward,
+            time_cost=time_cost,
+            grid_resolution=grid_resolution,
         )
-        self.grid_resolution = check_bounded(
-            "grid_resolution", grid_resolution, *RESOLUTION_RANGE, " m"
-        )
+        """The task's arguments, checked (shared with ``parallel_env(task="nav")``)."""
+        settings = self.settings
+        self.goal_radius, self.min_goal_distance = settings.goal_radius, settings.min_goal_distance
+        self.progress_reward_weight = settings.progress_reward_weight
+        self.arrival_reward, self.time_cost = settings.arrival_reward, settings.time_cost
+        self.grid_resolution = settings.grid_resolution
         super().__init__(**env_kwargs)
         if not has_arena(self):
             raise ValueError(
@@ -134,26 +128,13 @@ class BubbleRobNavEnv(BubbleRobEnv):
         self._touched = False
 
     def _add_goal_to_spaces(self) -> None:
-        reach = float(self.arena_size) * math.sqrt(2.0)
-        goal = spaces.Box(
-            np.array([0.0, -math.pi], np.float32), np.array([reach, math.pi], np.float32)
+        flat = self.observation_format.space if self.obs_mode == "flat" else None
+        assert flat is None or isinstance(flat, spaces.Box)
+        self.dict_observation_space, self.observation_space, goal_slice = spaces_with_goal(
+            self.dict_observation_space, flat, float(self.arena_size)
         )
-        readings = dict(self.dict_observation_space.spaces)
-        self.dict_observation_space = spaces.Dict({**readings, "goal": goal})
-        observed: spaces.Space[Any] = self.dict_observation_space
-        self.observation_space = observed
-        if self.obs_mode != "flat":
-            return
-        flat = self.observation_format.space
-        assert isinstance(flat, spaces.Box)
-        size = flat.shape[0]
-        self.observation_layout = {**self.observation_layout, "goal": slice(size, size + 2)}
-        observed = spaces.Box(
-            np.concatenate([flat.low, goal.low]),
-            np.concatenate([flat.high, goal.high]),
-            dtype=np.float32,
-        )
-        self.observation_space = observed
+        if goal_slice is not None:
+            self.observation_layout = {**self.observation_layout, "goal": goal_slice}
 
     @property
     def goal(self) -> tuple[float, float]:
@@ -193,7 +174,7 @@ class BubbleRobNavEnv(BubbleRobEnv):
             )  # fmt: skip
         grid = clearance_grid(self.layout, arena, radius, self.grid_resolution)
         start = self.layout.start_pose[:2]
-        return _planned(grid, goal, (start[0], start[1]), radius, arena)
+        return planned_problem(grid, goal, (start[0], start[1]), radius, arena)
 
     def set_goal(self, goal: Any, start: tuple[float, float] | None = None) -> NavProblem:
         """Give this episode a new goal ``(x, y)`` now, as a ROS user's goal does mid-episode.
@@ -207,7 +188,7 @@ class BubbleRobNavEnv(BubbleRobEnv):
             raise RuntimeError("set_goal() called before reset(): reset the env first")
         here = self.robot_pose[:2] if start is None else (float(start[0]), float(start[1]))
         radius, arena = self.robot.radius, float(self.arena_size)
-        self.problem = _planned(self.problem.grid, goal, here, radius, arena)
+        self.problem = planned_problem(self.problem.grid, goal, here, radius, arena)
         x, y, _ = self.robot_pose
         self._goal_distance = math.hypot(self.problem.goal[0] - x, self.problem.goal[1] - y)
         return self.problem
@@ -224,14 +205,9 @@ class BubbleRobNavEnv(BubbleRobEnv):
         after = self._update_pose(info)
         self._distance_driven += math.hypot(self.robot_pose[0] - x0, self.robot_pose[1] - y0)
         self._touched = self._touched or bool(info["collision"])
-        arrived = after <= self.goal_radius and not self._touched and not truncated
-        parts = {
-            "reward_progress": self.progress_reward_weight * (before - after),
-            "reward_arrival": self.arrival_reward if arrived else 0.0,
-            "reward_collision": float(info["reward_collision"]),
-            "reward_time": -self.time_cost,
-        }
-        for key in _WANDERING_PARTS:
+        arrived = self.settings.arrived(after, self._touched, bool(truncated))
+        parts = self.settings.reward_parts(before, after, arrived, float(info["reward_collision"]))
+        for key in WANDERING_PARTS:
             del info[key]
         info.update(parts)
         info["is_success"] = arrived
@@ -261,28 +237,14 @@ class BubbleRobNavEnv(BubbleRobEnv):
 
     def _with_goal(self, obs: Observation) -> Observation:
         """``obs`` with the goal's distance and bearing in the robot's frame."""
-        x, y, yaw = self.robot_pose
-        gx, gy = self.goal
-        bearing = math.remainder(math.atan2(gy - y, gx - x) - yaw, math.tau)
-        goal = np.array([self._goal_distance, bearing], dtype=np.float32)
-        if isinstance(obs, dict):
-            return {**obs, "goal": goal}
-        return np.concatenate([obs, goal])
+        return with_goal(obs, goal_reading(self.robot_pose, self.goal))
 
 
-def _check_metres(label: str, value: object) -> float:
-    """A finite number of metres > 0, or one line naming the value and what is allowed."""
-    try:
-        return check_positive(label, value)
-    except ValueError:
-        raise ValueError(f"{label} must be a finite number of metres > 0, got {value!r}") from None
-
-
-def _planned(
+def planned_problem(
     grid: Grid, goal: Any, start: tuple[float, float], radius: float, arena_size: float
 ) -> NavProblem:
     """The problem of reaching ``goal`` from ``start`` on ``grid``; a ``ValueError`` if none."""
-    target = _check_goal(goal, arena_size)
+    target = check_goal(goal, arena_size)
     if grid.data[cell_of(grid, target)] != FREE:
         raise ValueError(
             f"goal {target} is inside an obstacle or a wall widened by the robot's radius "
@@ -294,7 +256,7 @@ def _planned(
     return NavProblem(start, target, path, path_length(path), grid)
 
 
-def _check_goal(goal: Any, arena_size: float) -> tuple[float, float]:
+def check_goal(goal: Any, arena_size: float) -> tuple[float, float]:
     """``options["goal"]`` as (x, y) inside the arena, or a ``ValueError`` naming it."""
     try:
         x, y = (float(v) for v in goal)
