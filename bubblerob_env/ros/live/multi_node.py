@@ -22,14 +22,9 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from types import SimpleNamespace
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
-from bubblerob_env.mapping import episode_grid, has_arena
-from bubblerob_env.ros.episodes import EpisodeStream, jsonable, start_time_ns
-from bubblerob_env.ros.fanout import MessageFanout
+from bubblerob_env.ros.episodes import start_time_ns
 from bubblerob_env.ros.live.backend import LiveBackend, Publish, RawCallback
 from bubblerob_env.ros.live.controls import (
     CONTROL_TYPES,
@@ -48,8 +43,9 @@ from bubblerob_env.ros.live.node import (
 )
 from bubblerob_env.ros.live.sink import LiveSink
 from bubblerob_env.ros.messages.distros import deserialize, get_distro, serialize, typestore
-from bubblerob_env.ros.messages.robots import robot_frame_prefix, robot_topics
+from bubblerob_env.ros.messages.robots import robot_topics
 from bubblerob_env.ros.messages.topics import MSGTYPES, Topics, namespace_prefix
+from bubblerob_env.ros.world_streams import WorldStreams
 
 if TYPE_CHECKING:  # PettingZoo (the [multi] extra) is imported only where a world is made
     from bubblerob_env.multi.parallel import MultiRobotEnv
@@ -113,16 +109,12 @@ class _RobotBackend(LiveBackend):
 
 @dataclass
 class RobotChannel:
-    """One robot's names, publishing path and inputs."""
+    """One robot's sink and inputs (its frames: a ``WorldStreams`` robot)."""
 
     agent: str
-    topics: Topics
     controls: dict[str, str]
-    fanout: MessageFanout
     sink: LiveSink
-    stream: EpisodeStream
     state: ControlState
-    live: bool = False
     sensor_topics: dict[str, list[str]] = field(default_factory=dict)
     episode_start: bool = True
     obs: Any = None
@@ -151,16 +143,17 @@ class MultiSimNode:
             raise ValueError("--localize runs for one robot: leave it out with --robots")
         base = (topics or Topics()).replace(detections=None)  # the recogniser: one robot's
         self.clock_topic = base.resolved().get("clock")
-        self.dt_ns = round(env.config.control_timestep * 1e9)
         self.start_time_ns = start_time_ns(self.config.start_time)
         drive = env.world.scene.limits.drive
         self.events = ControlState(drive, watchdog=0.0)  # the world's controls and warnings
         self._encoding = get_distro(backend.distro).encoding
         self._static = _SharedStatic(backend, base.resolved().get("tf_static", "/tf_static"))
-        self.channels = [
-            self._channel(k, agent, robot_topics(base, k, naming), naming)
-            for k, agent in enumerate(env.possible_agents)
-        ]
+        named = [robot_topics(base, k, naming) for k in range(env.num_robots)]
+        published = [t.replace(**dict.fromkeys(COMMAND_KEYS)) for t in named]  # inputs here
+        self.world = WorldStreams(
+            env, published, self.start_time_ns, self.config.map_resolution, kwargs=None
+        )
+        self.channels = [self._channel(k, named[k], naming) for k in range(env.num_robots)]
         self.names = ControlTopics().resolved()
         self._clock = (
             None
@@ -176,40 +169,30 @@ class MultiSimNode:
         self.sim_state = {"running": RUNNING, "paused": PAUSED, "stopped": STOPPED}[
             self.config.start
         ]
-        self.steps = self.episodes = self._pending = 0
-        self.last_ns: int | None = None
-        self._offset_ns = 0
+        self.steps = self._pending = 0
         self._stop_requested = False
         self.first_step_at: float | None = None
         self.last_step_at: float | None = None
 
     # -- wiring ---------------------------------------------------------------------------------
 
-    def _channel(self, k: int, agent: str, named: Topics, naming: str) -> RobotChannel:
-        specs = self.env.world.scene.specs
+    def _channel(self, k: int, named: Topics, naming: str) -> RobotChannel:
+        robot = self.world.robots[k]
         commands = {key: name for key, name in named.resolved().items() if key in COMMAND_KEYS}
-        topics = named.replace(**dict.fromkeys(COMMAND_KEYS))  # inputs here, not published
-        fanout = MessageFanout(specs, topics)
-        converter = fanout.serializer(self.backend.distro).converter
-        converter.frame_prefix = robot_frame_prefix(k)
-        converter.shared_map = True
-        static_topic = topics.resolved().get("tf_static", "/tf_static")
-        sink = LiveSink(_RobotBackend(self.backend, self._static, static_topic, k))
-        resolved = topics.resolved()
+        resolved = robot.topics.resolved()
+        sink = LiveSink(_RobotBackend(self.backend, self._static, resolved.get("tf_static", ""), k))
+        specs = self.env.world.scene.specs
         if "scan" in resolved and specs.laser is not None:
             sink.publish_every(resolved["scan"], specs.scan_every)
-        fanout.add_sink(sink)
-        stream = EpisodeStream(fanout, self.dt_ns, self.start_time_ns, self.config.map_resolution)
-        prefix = namespace_prefix(topics.namespace)
+        self.world.add_sink(k, sink, self.backend.distro)
+        prefix = namespace_prefix(named.namespace)
         controls = {
             key: prefix + "/" + name.strip("/") + ("" if naming == "namespace" else str(k))
             for key, name in ControlTopics().__dict__.items()
             if key.endswith("_switch")
         }
-        channel = RobotChannel(
-            agent, topics, controls, fanout, sink, stream,
-            ControlState(self.env.world.scene.limits.drive, self.config.watchdog),
-        )  # fmt: skip
+        state = ControlState(self.env.world.scene.limits.drive, self.config.watchdog)
+        channel = RobotChannel(robot.agent, controls, sink, state)
         channel.sensor_topics = {
             "laser": [resolved[k] for k in ("scan",) if k in resolved],
             "camera": [resolved[k] for k in ("image", "camera_info") if k in resolved],
@@ -270,7 +253,7 @@ class MultiSimNode:
     @property
     def sim_time(self) -> float:
         """Simulated seconds since the first reset (the ``/clock`` time)."""
-        return 0.0 if self.last_ns is None else (self.last_ns - self.start_time_ns) * 1e-9
+        return self.world.sim_time
 
     @property
     def published(self) -> int:
@@ -278,56 +261,22 @@ class MultiSimNode:
         return sum(channel.sink.published for channel in self.channels)
 
     def _publish_clock(self) -> None:
-        if self._clock is not None and self.last_ns is not None:
-            sec, nanosec = divmod(self.last_ns, 10**9)
+        stamp_ns = self.world.last_ns
+        if self._clock is not None and stamp_ns is not None:
+            sec, nanosec = divmod(stamp_ns, 10**9)
             time_type = typestore(self.backend.distro).types["builtin_interfaces/msg/Time"]
             stamp = time_type(sec=sec, nanosec=nanosec)
             self._clock(self._serialize(MSGTYPES["clock"], clock=stamp))
 
     def _new_episode(self) -> None:
         seed = self.config.seed
-        seed = None if seed is None else seed + self.episodes
-        observations, infos = self.env.reset(seed=seed)
-        start = self.start_time_ns if self.last_ns is None else self.last_ns + self.dt_ns
-        grid = self._grid()
-        facts = {
-            "seed": seed,
-            "distro": self.backend.distro,
-            "format": "live",
-            "robots": self.env.num_robots,
-        }
-        for channel in self.channels:
-            agent = channel.agent
-            stream = channel.stream
-            if stream.last_ns is not None:
-                stream.last_ns = start - self.dt_ns  # robots done early: restart with the world
-            metadata = {
-                "episode": self.episodes,
-                **facts,
-                "robot": agent,
-                "start_time_ns": start,
-                "first_seq": stream.seq,
-                "dt": self.env.config.control_timestep,
-                "topics": channel.topics.to_dict(),
-            }
-            stream.begin(_as_dict(observations[agent]), infos[agent], jsonable(metadata), grid)
-            channel.live, channel.obs, channel.episode_start = True, observations[agent], True
-        self._offset_ns = start - round(float(infos[self.channels[0].agent]["sim_time"]) * 1e9)
-        self.last_ns = start
-        self.episodes += 1
+        seed = None if seed is None else seed + self.world.episodes
+        facts = {"distro": self.backend.distro, "format": "live"}
+        observations, _ = self.world.reset(seed, facts)
         self._publish_clock()
         for channel in self.channels:
+            channel.obs, channel.episode_start = observations[channel.agent], True
             channel.state.set_time(self.sim_time)
-
-    def _grid(self) -> Any:
-        if self.channels[0].topics.map is None:
-            return None
-        scene = self.env.world.scene
-        view = SimpleNamespace(
-            model=scene.model, layout=self.env.layout, arena_size=self.env.config.arena_size
-        )
-        shim = SimpleNamespace(unwrapped=view)
-        return episode_grid(shim, self.config.map_resolution) if has_arena(shim) else None
 
     def _action(self, channel: RobotChannel) -> Any:
         action = channel.state.action(self.sim_time)
@@ -340,19 +289,11 @@ class MultiSimNode:
         """One physics step of every live robot, each robot's frame, ``/clock`` and step done."""
         if self.first_step_at is None:
             self.first_step_at = time.perf_counter()
-        live = [c for c in self.channels if c.live]
-        actions = {c.agent: np.asarray(self._action(c), dtype=np.float32) for c in live}
-        observations, rewards, terminations, truncations, infos = self.env.step(actions)
+        live = [c for c, r in zip(self.channels, self.world.robots, strict=True) if r.live]
+        observations = self.world.step({c.agent: self._action(c) for c in live})[0]
         self.steps += 1
         for channel in live:
-            agent = channel.agent
-            channel.obs = observations[agent]
-            channel.stream.step(
-                _as_dict(observations[agent]), infos[agent], actions[agent], rewards[agent],
-                terminations[agent], truncations[agent],
-            )  # fmt: skip
-            channel.live = not (terminations[agent] or truncations[agent])
-        self.last_ns = self._offset_ns + round(float(infos[live[0].agent]["sim_time"]) * 1e9)
+            channel.obs = observations[channel.agent]
         self._publish_clock()
         if not self.env.agents:
             self._new_episode()
@@ -398,7 +339,7 @@ class MultiSimNode:
         if self.sim_state != STOPPED:
             self._new_episode()
         rate = self.config.rate_factor
-        period = self.dt_ns * 1e-9 / rate if rate > 0 else 0.0
+        period = self.world.dt_ns * 1e-9 / rate if rate > 0 else 0.0
         end = math.inf if duration is None else time.monotonic() + duration
         deadline: float | None = None
         first = self.steps
@@ -434,12 +375,6 @@ class MultiSimNode:
         for channel in self.channels:
             channel.sink.close()
         self.env.close()
-
-
-def _as_dict(obs: Any) -> dict[str, Any]:
-    """A Dict observation (``__init__`` refused ``obs_mode='flat'``)."""
-    assert isinstance(obs, dict)
-    return obs
 
 
 def _wheel(state: ControlState, side: int) -> Callable[[Any], None]:
