@@ -113,20 +113,21 @@ def test_make_test_runs_readmes_by_hand_steps_then_pytest():
 
 def test_make_test_clients_runs_the_client_tests_that_make_test_skips():
     # README's `make test-clients`: its venv gets CPU torch, the project, Tianshou and RLlib, then
-    # pytest runs the two tests that skip in make test (run for real: 2 passed in 6.5 min).
+    # pytest runs the tests that skip in make test (run for real: 2 passed in 6.5 min, before
+    # test_rllib_multi.py joined them).
     assert "`make test-clients`" in README
     dry_run = _make("-n", "test-clients", "VENV_CLIENTS=.venv-clients").stdout
     assert "--index-url https://download.pytorch.org/whl/cpu" in dry_run
     assert '"tianshou[eval]==2.0.1" "ray[rllib]==2.60.0"' in dry_run
-    tests = "tests/test_clients_tianshou.py tests/ray/test_rllib.py"
+    tests = "tests/test_clients_tianshou.py tests/ray/test_rllib.py tests/ray/test_rllib_multi.py"
     assert dry_run.rstrip().endswith(f" {tests}")
     assert ".venv-clients/bin/python -m pytest tests/test_env.py " in dry_run
     skip = subprocess.run(
         [sys.executable, "-m", "pytest", "-q", "-rs", *tests.split()],
         cwd=ROOT, capture_output=True, text=True, timeout=300, check=False,
     )  # fmt: skip
-    if "2 passed" not in skip.stdout:  # where the clients are installed they run; else say why
-        assert skip.stdout.count("make test-clients") == 2, skip.stdout
+    if "3 passed" not in skip.stdout:  # where the clients are installed they run; else say why
+        assert skip.stdout.count("make test-clients") == 3, skip.stdout
 
 
 def test_ci_runs_make_demo_torch_free_then_make_test():
