@@ -8,6 +8,11 @@ another robot terminates (with ``terminate_on_collision``), and so does the robo
 leaves ``agents`` and stays where it stopped, wheels commanded to 0: an obstacle to the others.
 ``max_episode_steps`` truncates every robot. One robot (``scenario="random"``) gives
 ``BubbleRob-v0``'s episodes bit for bit.
+
+``task="nav"`` gives each robot its own goal (:mod:`~bubblerob_env.multi.goals`), its
+``goal`` reading, the single Nav task's reward parts and ``info``, and success: a robot within
+``goal_radius`` of its goal terminates with ``is_success`` and stays there, stopped, an
+obstacle to the others (as Long et al.'s arrived robots).
 """
 
 from __future__ import annotations
@@ -28,16 +33,19 @@ from bubblerob_env.config import EnvConfig
 from bubblerob_env.core.kernel import OUT
 from bubblerob_env.core.worlds import WorldBatch
 from bubblerob_env.infos import robot_info
+from bubblerob_env.multi.goals import TASKS, WorldGoals, circle_arena_size
 from bubblerob_env.multi.placement import check_fits, sample_world
 from bubblerob_env.multi.scene import WorldScene, agent_name, partner_name
 from bubblerob_env.odometry import Odometry, draw_slip
 from bubblerob_env.rendering import EnvViews
+from bubblerob_env.tasks.nav_rules import NAV_ARGUMENTS, NavSettings, spaces_with_goal, with_goal
 
 __all__ = ["MultiRobotEnv", "parallel_env"]
 
 Pose = tuple[float, float, float]
 
 _ONE_WORLD = np.zeros(1, dtype=np.int64)
+_WORLD_TRIES = 20  # worlds drawn before giving up on goals for every robot (never needed)
 
 
 def parallel_env(
@@ -45,14 +53,17 @@ def parallel_env(
     robot: str = "bubblerob",
     scenario: str = "random",
     max_episode_steps: int = 1000,
+    task: str = "wander",
     **kwargs: Any,
 ) -> MultiRobotEnv:
     """``num_robots`` robots (``"bubblerob"`` or ``"pioneer_p3dx"``) in one world.
 
     ``scenario``: ``"random"`` free start poses, ``"circle"`` on a circle facing its centre;
-    ``kwargs``: the single env's (``gym.make("BubbleRob-v0", **kwargs)``).
+    ``task``: ``"wander"`` (``BubbleRob-v0``'s) or ``"nav"`` (each robot to its goal, with
+    ``BubbleRobNav-v0``'s arguments: ``goal_radius`` ...); ``kwargs``: the single env's
+    (``gym.make("BubbleRob-v0", **kwargs)``).
     """
-    return MultiRobotEnv(num_robots, robot, scenario, max_episode_steps, **kwargs)
+    return MultiRobotEnv(num_robots, robot, scenario, max_episode_steps, task, **kwargs)
 
 
 # PettingZoo ships no type information: its ParallelEnv is Any to mypy.
@@ -67,8 +78,15 @@ class MultiRobotEnv(ParallelEnv[str, Observation, NDArray[np.float32]]):  # type
         robot: str = "bubblerob",
         scenario: str = "random",
         max_episode_steps: int = 1000,
+        task: str = "wander",
         **kwargs: Any,
     ) -> None:
+        if task not in TASKS:
+            raise ValueError(f"task must be one of {list(TASKS)}, got {task!r}")
+        task_kwargs = {k: kwargs.pop(k) for k in NAV_ARGUMENTS if k in kwargs}
+        if task_kwargs and task != "nav":
+            raise ValueError(f"{sorted(task_kwargs)} are arguments of task='nav', not {task!r}")
+        settings = NavSettings.checked(**task_kwargs) if task == "nav" else None
         if isinstance(num_robots, bool) or not isinstance(num_robots, int) or num_robots < 1:
             raise ValueError(f"num_robots must be an integer >= 1, got {num_robots!r}")
         if isinstance(max_episode_steps, bool) or not isinstance(max_episode_steps, int):
@@ -80,8 +98,17 @@ class MultiRobotEnv(ParallelEnv[str, Observation, NDArray[np.float32]]):  # type
                 f"render_mode must be None or 'rgb_array', got {kwargs['render_mode']!r}"
             )
         config = EnvConfig.from_kwargs({**kwargs, "robot": robot})
+        if settings is not None and scenario == "circle" and "arena_size" not in kwargs:
+            needed = circle_arena_size(config, num_robots)  # room to pass on the circle
+            if needed > config.arena_size:
+                config = EnvConfig.from_kwargs({**kwargs, "robot": robot, "arena_size": needed})
         check_fits(config, num_robots, scenario)
         self.config = config
+        self.task = task
+        self.goals = None if settings is None else WorldGoals(settings, config, num_robots)
+        """Each robot's goal and progress with ``task="nav"`` (else None)."""
+        self.layout = ArenaLayout((), (0.0, 0.0, 0.0))
+        """The obstacles and robot 0's start pose (after a reset)."""
         self.scenario = scenario
         self.max_episode_steps = max_episode_steps
         self.render_mode = config.render_mode
@@ -96,6 +123,11 @@ class MultiRobotEnv(ParallelEnv[str, Observation, NDArray[np.float32]]):  # type
         self.agents: list[str] = []
         self._index = {agent: k for k, agent in enumerate(self.possible_agents)}
         self._observation_space = self.observation_format.space
+        if self.goals is not None:
+            readings = self.observation_format.dict_space
+            flat = self._observation_space if config.obs_mode == "flat" else None
+            assert flat is None or isinstance(flat, spaces.Box)
+            _, self._observation_space, _ = spaces_with_goal(readings, flat, config.arena_size)
         self._action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
         self._odometry = Odometry(
             num_robots, scene.limits.drive.wheel_separation, config.odometry_noise
@@ -140,15 +172,44 @@ class MultiRobotEnv(ParallelEnv[str, Observation, NDArray[np.float32]]):  # type
 
         ``options``: ``{"start_poses": [(x, y, yaw), ...]}`` one pose per robot and/or
         ``{"obstacles": (Obstacle, ...)}`` replace what the reset draws (a pose that touches
-        anything is a ``ValueError``).
+        anything is a ``ValueError``); with ``task="nav"``, ``{"goals": [(x, y), ...]}`` one goal
+        per robot (refused as the single Nav env's ``options["goal"]``).
         """
         if seed is not None:
             self._np_random, _ = seeding.np_random(seed)
+        options = dict(options or {})
+        goals = options.pop("goals", None)
+        if goals is not None and self.goals is None:
+            raise ValueError("options['goals'] needs task='nav'")
+        for _ in range(_WORLD_TRIES):
+            drawn, given = self._draw_world(options)
+            if self.goals is None:
+                break
+            if goals is not None or given:
+                self._set_goals(drawn, goals)
+                break
+            layout = self.goals.draw(self.np_random, self.layout, drawn, self.scenario)
+            if layout is not None:
+                self.layout = layout
+                break
+        else:
+            raise RuntimeError(f"no goal for every robot in {_WORLD_TRIES} worlds: a crowded arena")
+        return self._start_world(drawn, given)
+
+    def _set_goals(self, drawn: list[Pose], goals: Any) -> None:
+        """Given goals, or goals drawn for given poses or obstacles (one ``ValueError`` line)."""
+        assert self.goals is not None
+        if goals is not None:
+            self.goals.set(self.layout, drawn, goals)
+        elif self.goals.draw(self.np_random, self.layout, drawn, "random") is None:
+            raise ValueError("no goal can be drawn for every robot from the given start poses")
+
+    def _draw_world(self, options: dict[str, Any]) -> tuple[list[Pose], bool]:
+        """The layout (``self.layout``) and start poses, drawn or given; whether given."""
         rng = self.np_random
         scene = self.world.scene
-        options = dict(options or {})
-        poses = options.pop("start_poses", None)
-        obstacles = options.pop("obstacles", None)
+        poses = options.get("start_poses")
+        obstacles = options.get("obstacles")
         single = self.num_robots == 1 and self.scenario == "random"
         given = poses is not None or obstacles is not None
         if single:
@@ -161,7 +222,14 @@ class MultiRobotEnv(ParallelEnv[str, Observation, NDArray[np.float32]]):  # type
             obstacles = self.layout.obstacles if obstacles is None else tuple(obstacles)
             self.layout = ArenaLayout(obstacles, poses[0])
             drawn = poses
-        if given or not single:
+        return drawn, given
+
+    def _start_world(
+        self, drawn: list[Pose], given: bool
+    ) -> tuple[dict[str, Observation], dict[str, dict[str, Any]]]:
+        """Place the robots at ``drawn`` (robot 0 is there already in a single world)."""
+        scene = self.world.scene
+        if given or not (self.num_robots == 1 and self.scenario == "random"):
             self._place(drawn)
         scene.forward()
         if given:
@@ -175,8 +243,11 @@ class MultiRobotEnv(ParallelEnv[str, Observation, NDArray[np.float32]]):  # type
         self.batch.start(rows, scene.model)
         for k in range(self.num_robots):
             self._odometry.reset(k, self.batch.core.out[k])
-        observations = {agent: self._observation(k) for k, agent in enumerate(self.agents)}
         infos = {agent: self._info(k) for k, agent in enumerate(self.agents)}
+        goals = self.goals
+        if goals is not None:
+            infos = {a: goals.start(k, info) for k, (a, info) in enumerate(infos.items())}
+        observations = {agent: self._observation(k) for k, agent in enumerate(self.agents)}
         return observations, infos
 
     def _place(self, poses: list[tuple[float, float, float]]) -> None:
@@ -251,9 +322,13 @@ class MultiRobotEnv(ParallelEnv[str, Observation, NDArray[np.float32]]):  # type
             if collision:
                 info["collided_with"] = self._partner_name(k)
             terminated = collision and self.config.terminate_on_collision
+            reward = values[k][OUT.REWARD]
+            if self.goals is not None:
+                reward, arrived, info = self.goals.step(k, info, truncated)
+                terminated = terminated or arrived
             for part, value in zip(
                 result,
-                (self._observation(k), values[k][OUT.REWARD], terminated, truncated, info),
+                (self._observation(k), reward, terminated, truncated, info),
                 strict=True,
             ):
                 part[agent] = value
@@ -274,7 +349,7 @@ class MultiRobotEnv(ParallelEnv[str, Observation, NDArray[np.float32]]):  # type
         obs: Observation = self.observation_format.assemble(
             laser, core.proximity[k].copy(), core.velocity[k].copy(), camera
         )
-        return obs
+        return obs if self.goals is None else with_goal(obs, self.goals.reading(k))
 
     def _info(self, k: int) -> dict[str, Any]:
         scene = self.world.scene
