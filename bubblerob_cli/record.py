@@ -92,6 +92,14 @@ def _add_record(subparsers: Any) -> None:
         help="record as Ray tasks, one bag per task named by its seeds: 'local' starts a "
         "cluster for this run, anything else is ray.init's address; needs the [ray] extra",
     )
+    record.add_argument(
+        "--robots",
+        type=int,
+        default=1,
+        metavar="N",
+        help="N robots in one world, each driven by --policy, in one bag (robot i's topics "
+        "under /robot_i, frames robot_i/...)",
+    )
     record.add_argument("--out", type=Path, required=True, help="directory for the bag")
     record.set_defaults(handler=_record)
 
@@ -103,6 +111,9 @@ def _add_bag_readers(subparsers: Any) -> None:
     )
     info.add_argument("bag", type=Path, help="a .bag, .mcap or .db3 file, or a ROS 2 bag folder")
     info.add_argument("--json", action="store_true", help="print JSON instead of text")
+    info.add_argument(
+        "--robot", default=None, help="a record --robots bag: one robot's topics (robot_1)"
+    )
     info.set_defaults(handler=_info)
 
     replay = subparsers.add_parser(
@@ -176,6 +187,10 @@ def _record(args: argparse.Namespace) -> int:
     if problem is not None:
         report("record", problem)
         return 2
+    if args.robots != 1:
+        from bubblerob_cli.record_robots import record_robots
+
+        return record_robots(args, record_env_kwargs(args))
     if args.ray is not None:  # bubblerob_cli.ray.record imports Ray; this module does not
         from bubblerob_cli.ray.record import record_command
 
@@ -273,6 +288,10 @@ def _info(args: argparse.Namespace) -> int:
     except (FileNotFoundError, OSError) as error:
         report("info", str(error))
         return 2
+    if args.robot is not None:
+        from bubblerob_cli.record_robots import robot_summary
+
+        summary = robot_summary(summary, args.robot)
     if args.json:
         print(json.dumps(summary.to_dict(), indent=2, sort_keys=True))
         return 0
@@ -311,6 +330,11 @@ def _replay(args: argparse.Namespace) -> int:
     if args.episodes is not None and args.episodes < 1:
         report("replay", f"--episodes must be at least 1, got {args.episodes}")
         return 2
+    from bubblerob_cli.record_robots import replay_world_bag
+
+    status = replay_world_bag(args.bag)
+    if status is not None:
+        return status
     try:
         outcome = replay_bag(args.bag, max_episodes=args.episodes)
     except (ReplayError, OSError) as error:

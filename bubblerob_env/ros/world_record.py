@@ -23,7 +23,14 @@ from bubblerob_env.ros.fastpath.framing import Framing, PackedBatchWriter, Packe
 from bubblerob_env.ros.messages.topics import Topics
 from bubblerob_env.ros.world_streams import WorldStreams
 
-__all__ = ["WorldDriver", "is_world_bag", "record_world", "replay_world", "world_robots"]
+__all__ = [
+    "WorldDriver",
+    "is_world_bag",
+    "episode_records",
+    "record_world",
+    "replay_world",
+    "world_robots",
+]
 
 WorldDriver = Callable[[str, Any, bool], Any]
 """``driver(agent, obs, episode_start) -> action`` for each live robot of each step."""
@@ -95,7 +102,7 @@ def record_world(
     return bag.path, steps
 
 
-def _metadata(path: Path) -> list[dict[str, Any]]:
+def episode_records(path: Path) -> list[dict[str, Any]]:
     """Every episode record of a bag (every robot's), in order."""
     from rosbags.highlevel import AnyReader
 
@@ -115,7 +122,7 @@ def _metadata(path: Path) -> list[dict[str, Any]]:
 def world_robots(path: str | Path) -> list[str]:
     """The robots of a ``record --robots`` bag, in order; empty for a one-robot bag."""
     robots: dict[str, None] = {}
-    for meta in _metadata(Path(path)):
+    for meta in episode_records(Path(path)):
         if "robots" in meta and "robot" in meta:
             robots[meta["robot"]] = None
     return list(robots)
@@ -161,7 +168,7 @@ def replay_world(path: str | Path) -> str | None:
     import bubblerob_env
 
     source = Path(path)
-    episodes = [m for m in _metadata(source) if "robots" in m and "robot" in m]
+    episodes = [m for m in episode_records(source) if "robots" in m and "robot" in m]
     if not episodes:
         raise ValueError(f"{source} is not a bag of several robots (bubblerob record --robots)")
     first = episodes[0]
