@@ -46,6 +46,11 @@ def env_kwargs_json(text: str) -> dict[str, Any]:
         raise argparse.ArgumentTypeError(f"--env-kwargs must be a JSON object: {error}") from error
     if not isinstance(value, dict):
         raise argparse.ArgumentTypeError(f"--env-kwargs must be a JSON object, got {text}")
+    mode = value.get("render_mode")
+    if mode is not None and not isinstance(mode, str):  # gym.make itself fails on it
+        raise argparse.ArgumentTypeError(
+            f"--env-kwargs render_mode must be a string or null, got {mode!r}"
+        )
     return value
 
 

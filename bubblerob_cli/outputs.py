@@ -3,7 +3,7 @@
 docs/RELIABILITY.md's rule for outputs: before an episode runs, a bag is read or a model trains,
 each output path is checked: not a folder, a suffix the writer knows, not another output or an
 input of the same command, not an existing file unless ``--overwrite`` is given (a command without
-``--overwrite`` still never replaces a recording: a bag file, or a file inside a ROS 2 bag folder),
+``--overwrite`` still never replaces a recording: a bag file, nor writes into a ROS 2 bag folder),
 and writable (its folder is created and a file opened there). A write that still fails (a full
 disk) is one line and exit 1: :func:`write_output`.
 """
@@ -44,7 +44,7 @@ class Output:
 
 
 def _is_recording(path: Path) -> bool:
-    return path.suffix.lower() in BAG_SUFFIXES or (path.parent / "metadata.yaml").is_file()
+    return path.suffix.lower() in BAG_SUFFIXES
 
 
 def _problem(output: Output, overwrite: bool | None) -> str | None:
@@ -54,6 +54,8 @@ def _problem(output: Output, overwrite: bool | None) -> str | None:
         return f"{option} {path} is a directory: name the file to write"
     if output.suffixes and path.suffix.lower() not in output.suffixes:
         return f"{option} {path}: name a {' or '.join(output.suffixes)} file"
+    if (path.parent / "metadata.yaml").is_file():
+        return f"{option} {path} is inside a ROS 2 bag folder: name a file outside it"
     if path.exists() and _is_recording(path):
         return f"{option} {path} is a recording: name another file (it is never replaced)"
     if path.exists() and overwrite is False:

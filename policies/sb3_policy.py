@@ -103,8 +103,11 @@ class PooledPolicy(ObservationAdapter):
 
 def sb3_algorithm(path: Path) -> str:
     """``"PPO"`` or ``"SAC"``: which algorithm saved the SB3 model ``path``."""
-    with zipfile.ZipFile(path) as archive:
-        data = archive.read("data").decode() if "data" in archive.namelist() else ""
+    try:
+        with zipfile.ZipFile(path) as archive:
+            data = archive.read("data").decode() if "data" in archive.namelist() else ""
+    except zipfile.BadZipFile as error:  # a ValueError: one line for the caller, as bad input
+        raise ValueError(f"cannot load the policy file {path}: not a zip ({error})") from None
     if not data:
         raise ValueError(f"{path} is not a stable-baselines3 model (no 'data' entry)")
     policy_class = json.loads(data).get("policy_class", {})

@@ -12,6 +12,7 @@ from typing import Any
 
 __all__ = [
     "MAX_SEED",
+    "NOT_ALGO_KWARGS",
     "TrainArgumentError",
     "check_hyperparams",
     "check_train_arguments",
@@ -31,6 +32,19 @@ _SCHEDULED = ("learning_rate", "clip_range")  # > 0, or an rl-zoo schedule strin
 
 class TrainArgumentError(ValueError):
     """A command-line option or hyperparameter that cannot train (the message names it)."""
+
+
+NOT_ALGO_KWARGS = (
+    "normalize",
+    "n_timesteps",
+    "n_envs",
+    "env_kwargs",
+    "policy",
+    "env_wrapper",
+    "frame_stack",
+    "callback",
+)
+"""rl-zoo keys that are not keyword arguments of the SB3 algorithm (``seed`` neither)."""
 
 
 def _is_int(value: object) -> bool:
@@ -77,6 +91,7 @@ def check_hyperparams(algo: str, config: dict[str, Any]) -> None:
             f"hyperparameter {key} must be {allowed}, got {config[key]!r} (--set {key}=...)"
         )
 
+    _check_known(algo, config)
     for key in _INTS_FROM_ONE:
         if key in config and not (_is_int(config[key]) and config[key] >= 1):
             raise bad(key, "an int >= 1")
@@ -104,6 +119,25 @@ def check_hyperparams(algo: str, config: dict[str, Any]) -> None:
         raise TrainArgumentError(
             f"n_steps * n_envs must be > 1 for PPO, got {config.get('n_steps')} * "
             f"{config.get('n_envs')}"
+        )
+
+
+def _check_known(algo: str, config: dict[str, Any]) -> None:
+    """Every key is the run's own (``NOT_ALGO_KWARGS``) or the SB3 algorithm's keyword argument.
+
+    An unknown one (``--set nope=1``) would otherwise fail inside SB3 after the envs are made.
+    """
+    import inspect
+
+    from stable_baselines3 import PPO, SAC
+
+    algo_cls: type = PPO if algo == "ppo" else SAC
+    taken = set(inspect.signature(algo_cls).parameters)
+    unknown = sorted(k for k in config if k not in taken and k not in (*NOT_ALGO_KWARGS, "seed"))
+    if unknown:
+        raise TrainArgumentError(
+            f"unknown hyperparameter {unknown[0]} (--set {unknown[0]}=...): {algo.upper()} takes "
+            f"the run's own keys {sorted(NOT_ALGO_KWARGS)} and its keyword arguments"
         )
 
 

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from policies.runs import parse_env_wrapper
-from train.checks import schedule_start
+from train.checks import NOT_ALGO_KWARGS, schedule_start
 
 __all__ = [
     "ALGOS",
@@ -36,17 +36,6 @@ __all__ = [
 
 ALGOS = ("ppo", "sac")
 HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
-NOT_ALGO_KWARGS = (
-    "normalize",
-    "n_timesteps",
-    "n_envs",
-    "env_kwargs",
-    "policy",
-    "env_wrapper",
-    "frame_stack",
-    "callback",
-)
-"""rl-zoo keys that are not keyword arguments of the SB3 algorithm (``seed`` neither)."""
 PROJECT_SETTINGS = {"vec_env": "--vec-env", "torch_threads": "--torch-threads"}
 """Settings of this project's trainer that rl_zoo3 does not know: command-line options, not YAML."""
 

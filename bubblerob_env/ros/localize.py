@@ -61,8 +61,14 @@ def localize_problem(env: Any, resolution: float) -> str:
 
 
 def default_png(bag: str | Path) -> Path:
-    """Where the picture goes by default: beside the bag, ``<bag>.localize.png``."""
+    """Where the picture goes by default: beside the bag, ``<bag>.localize.png``.
+
+    A storage file named inside a ROS 2 bag folder counts as its folder: nothing is written into
+    a bag.
+    """
     path = Path(bag)
+    if path.is_file() and (path.parent / "metadata.yaml").is_file():
+        path = path.parent
     return path.with_name(path.name.rstrip("/") + ".localize.png")
 
 
