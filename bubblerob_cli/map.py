@@ -29,6 +29,9 @@ def add_subcommands(subparsers: Any) -> None:
     parser.add_argument("--resolution", default=DEFAULT_RESOLUTION, help="m/cell, 0.005 to 1")
     parser.add_argument("--out", default="map.png", help="PNG to write")
     parser.add_argument(
+        "--robot", default=None, help="a record --robots bag: the robot to map (robot_1)"
+    )
+    parser.add_argument(
         "--env",
         metavar="ID",
         help="re-simulate the ground truth in this env id instead of the one the episode's "
@@ -54,7 +57,9 @@ def _run(args: argparse.Namespace) -> int:
         report("map", str(error))
         return 2
     try:
-        result = map_bag(args.bag, args.episode, resolution, args.env, args.env_kwargs)
+        result = map_bag(
+            args.bag, args.episode, resolution, args.env, args.env_kwargs, robot=args.robot
+        )
     except (OSError, MapError) as error:
         report("map", str(error))
         return 2

@@ -33,6 +33,7 @@ from bubblerob_env.mapping import (
     occupied_iou,
 )
 from bubblerob_env.png import write_png  # stdlib zlib: the [ros] extra brings no image library
+from bubblerob_env.ros.bag_robots import robot_episodes
 from bubblerob_env.ros.bag_topics import BagTopicsError, bag_topic_names
 from bubblerob_env.ros.readback.episode_env import make_episode_env
 from bubblerob_env.ros.readback.summary import bag_root, find_episodes, open_reader
@@ -96,8 +97,12 @@ def map_bag(
     resolution: float = DEFAULT_RESOLUTION,
     env_id: str | None = None,
     env_kwargs: dict[str, Any] | None = None,
+    robot: str | None = None,
 ) -> MapResult:
     """Map episode ``episode`` (its index in the bag) of the bag at ``path``.
+
+    ``robot``: which robot of a ``record --robots`` bag (``robot_1``;
+    :func:`~bubblerob_env.ros.bag_robots.robot_episodes`).
 
     The ground truth is the bag's ``/map`` at ``resolution`` if it has one and neither
     ``env_id`` nor ``env_kwargs`` is given, else the episode re-simulated: its env made from the
@@ -111,6 +116,10 @@ def map_bag(
     """
     with open_reader(bag_root(path)) as reader:
         _, episodes = find_episodes(reader)
+        try:
+            episodes, frame_prefix = robot_episodes(path, episodes, robot)
+        except ValueError as error:
+            raise MapError(str(error)) from None
         _check_episode(path, episode, len(episodes))
         meta = episodes[episode]
         start = int(meta["start_time_ns"])
@@ -120,7 +129,7 @@ def map_bag(
         except BagTopicsError as error:
             raise MapError(f"{path}: {error}") from None
         recorded, scans, poses, laser_offset = _read_episode(
-            reader, names, (start, end), resolution
+            reader, names, (start, end), resolution, frame_prefix
         )
     if recorded is None or env_id is not None or env_kwargs is not None:
         truth, source = _simulated(meta, resolution, env_id, env_kwargs), ""
@@ -151,7 +160,11 @@ Pose = tuple[float, float, float]
 
 
 def _read_episode(
-    reader: Any, names: dict[str, str], span: tuple[int, int | None], resolution: float
+    reader: Any,
+    names: dict[str, str],
+    span: tuple[int, int | None],
+    resolution: float,
+    frame_prefix: str = "",
 ) -> tuple[Grid | None, list[tuple[int, Any]], dict[int, Pose], Pose]:
     """What :func:`map_bag` reads of one episode, from ``start`` to before ``end`` (ns).
 
@@ -177,6 +190,8 @@ def _read_episode(
                 scans.append((stamp, message))
             continue
         for transform in message.transforms:
+            if not transform.child_frame_id.startswith(frame_prefix):  # another robot's
+                continue
             t, q = transform.transform.translation, transform.transform.rotation
             pose = (float(t.x), float(t.y), _yaw(q))
             if transform.child_frame_id.endswith("laser_link"):

@@ -84,7 +84,11 @@ def test_record_cli_robots_then_replay_and_info(tmp_path):
     assert "/robot_1/scan" in info.stdout and "/robot_0/scan" not in info.stdout
     wrong = run("info", str(bag), "--robot", "robot_7")
     assert wrong.returncode == 2 and "robot_7" in wrong.stderr and "robot_1" in wrong.stderr
-    assert json.loads(json.dumps(made.stdout))  # one line of text
+    mapped = run("map", str(bag), "--robot", "robot_1", "--out", str(tmp_path / "m.png"))
+    assert mapped.returncode == 0, mapped.stderr
+    assert "/map" in mapped.stdout  # the recorded ground truth (robot_1's /robot_1/map)
+    mixed = run("map", str(bag), "--out", str(tmp_path / "m2.png"))
+    assert mixed.returncode == 2 and "choose one with --robot" in mixed.stderr
 
 
 def test_replay_finds_a_changed_action(tmp_path, monkeypatch):
