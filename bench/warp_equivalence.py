@@ -9,11 +9,12 @@ boxes (same first-contact step or not); per open-loop drive (straight, curve, ra
 ``--seeds`` seeds from 30000 (never used to build or tune the backend), how many episodes have the
 CPU env's outcome (collision or not within ``--steps`` steps) and how far apart the first contacts
 are; and the laser against the CPU env's on the reset and each of the 40 steps after it, every
-world, every ray, until the world's first contact. A ray read more than 1 mm apart counts as
-grazing an edge when ``mj_ray`` on the warp state gives the warp reading and the CPU reading jumps
-by more than 1 mm when the ray turns 1e-5 rad either way (:func:`~bubblerob_env.mjwarp.compare.
-grazing`); the largest error is over the other rays. The drift row: how far the robot's pose on
-the two backends is apart over those steps.
+world, every ray, before the world's first contact. A ray read more than 1 mm apart counts as
+grazing an edge when turning it on the CPU state, by at most twice the backends' heading
+difference (at least 1e-5 rad), gives the warp reading within 1 cm
+(:func:`~bubblerob_env.mjwarp.compare.grazing`); the largest error is over the other rays.
+The drift row: how far the robot's pose on the two backends is apart over those steps; the last
+row, the same on the first-contact step, after an impact.
 """
 
 from __future__ import annotations
@@ -41,6 +42,7 @@ from bubblerob_env.mjwarp.compare import (
     first_contacts,
     grazing,
     head_on_seeds,
+    heading,
     warp_drives,
 )
 
@@ -79,50 +81,62 @@ def _head_on_row(device: str | None, per_kind: int) -> str:
     return f"| head-on drives, same first-contact step | {3 * per_kind} drives | {parts} |"
 
 
-def _compared(warp: Drives, cpu: Drives) -> NDArray[np.bool_]:
-    """``(steps + 1, n)``: the rows both backends spent in the world's first episode."""
-    last = np.where(warp.first < 0, 10**9, warp.first)
-    last = np.minimum(last, np.where(cpu.first < 0, 10**9, cpu.first))
+def _compared(warp: Drives, cpu: Drives) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """``(steps + 1, n)`` masks: the rows before either backend's first contact, and the rows
+    of a first contact both had on the same step (the state after the impact)."""
+    never = 10**9
+    warp_first = np.where(warp.first < 0, never, warp.first)
+    cpu_first = np.where(cpu.first < 0, never, cpu.first)
     rows = np.arange(warp.laser.shape[0])[:, None] - 1  # row t is after step t - 1
-    return rows <= last[None, :]
+    before = rows < np.minimum(warp_first, cpu_first)[None, :]
+    impact = (rows == warp_first[None, :]) & (warp_first == cpu_first)[None, :]
+    return before, impact
 
 
-def _yaw(root: NDArray[np.float64]) -> NDArray[np.float64]:
-    """The heading of free-joint poses (x, y, z, w, qx, qy, qz)."""
-    w, x, y, z = root[..., 3], root[..., 4], root[..., 5], root[..., 6]
-    return np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-
-
-def _laser_rows(warp: Drives, cpu: Drives, seeds: list[int]) -> list[str]:
-    """The laser on every compared step, grazing rays apart; and the pose drift."""
-    compared = _compared(warp, cpu)
+def _errors(
+    warp: Drives, cpu: Drives, seeds: list[int], rows: NDArray[np.bool_]
+) -> tuple[NDArray[np.float32], int, int]:
+    """The laser errors on ``rows`` with grazing rays zeroed; grazing and other rays over 1 mm."""
     error = np.abs(warp.laser - cpu.laser)
-    error[~compared] = 0.0
-    outliers = np.argwhere(error > TOLERANCE)
+    error[~rows] = 0.0
+    outliers = np.argwhere(error > TOLERANCE).tolist()
     scenes: dict[int, object] = {}
     grazes = 0
-    for t, w, ray in outliers.tolist():
+    for t, w, ray in outliers:
         if w not in scenes:
             env = gym.make("BubbleRob-v0")
             env.reset(seed=seeds[w])
             scenes[w] = env.unwrapped.scene  # type: ignore[attr-defined]
-        readings = (float(warp.laser[t, w, ray]), float(cpu.laser[t, w, ray]))
-        if grazing(scenes[w], warp.root[t, w], cpu.root[t, w], ray, readings):
+        if grazing(scenes[w], warp.root[t, w], cpu.root[t, w], ray, float(warp.laser[t, w, ray])):
             grazes += 1
             error[t, w, ray] = 0.0
+    return error[rows], grazes, len(outliers) - grazes
+
+
+def _laser_rows(warp: Drives, cpu: Drives, seeds: list[int]) -> list[str]:
+    """The laser on every step before the first contact, grazing rays apart; the pose drift;
+    and both on the first-contact step."""
+    compared, impact = _compared(warp, cpu)
+    kept, grazes, others = _errors(warp, cpu, seeds, compared)
+    impact_kept, impact_grazes, impact_others = _errors(warp, cpu, seeds, impact)
     rays = int(compared.sum()) * warp.laser.shape[2]
-    kept = error[compared]
-    position = np.linalg.norm(warp.root[..., :2] - cpu.root[..., :2], axis=-1)[compared]
-    turn = _yaw(warp.root) - _yaw(cpu.root)
-    heading = np.abs((turn + np.pi) % (2 * np.pi) - np.pi)[compared]
+    position = np.linalg.norm(warp.root[..., :2] - cpu.root[..., :2], axis=-1)
+    turn = heading(warp.root) - heading(cpu.root)
+    yaw = np.abs((turn + np.pi) % (2 * np.pi) - np.pi)
     return [
-        f"| laser vs the CPU env, reset + {LASER_STEPS} steps, every world | {rays} rays, "
-        f"{len(seeds)} worlds | max {kept.max() * 1e3:.3f} mm over the non-grazing rays "
-        f"(99.9th percentile {np.quantile(kept, 0.999) * 1e3:.4f} mm); {len(outliers) - grazes} "
-        f"non-grazing rays over 1 mm; {grazes} grazing-edge rays over 1 mm |",
+        f"| laser vs the CPU env, reset + {LASER_STEPS} steps before the first contact, every "
+        f"world | {rays} rays, {len(seeds)} worlds | max {kept.max() * 1e3:.3f} mm over the "
+        f"non-grazing rays (99.9th percentile {np.quantile(kept, 0.999) * 1e3:.4f} mm); "
+        f"{others} non-grazing rays over 1 mm; {grazes} grazing-edge rays over 1 mm |",
         f"| pose drift over the same steps | {int(compared.sum())} states | position max "
-        f"{position.max() * 1e3:.4f} mm (median {np.median(position) * 1e3:.5f} mm), "
-        f"heading max {heading.max():.2e} rad (median {np.median(heading):.1e}) |",
+        f"{position[compared].max() * 1e3:.4f} mm (median "
+        f"{np.median(position[compared]) * 1e3:.5f} mm), heading max "
+        f"{yaw[compared].max():.2e} rad (median {np.median(yaw[compared]):.1e}) |",
+        f"| the same on the first-contact step, after the impact | {int(impact.sum())} worlds "
+        f"| laser max {impact_kept.max(initial=0.0) * 1e3:.3f} mm over the non-grazing rays; "
+        f"{impact_others} non-grazing and {impact_grazes} grazing-edge rays over 1 mm; position "
+        f"max {position[impact].max(initial=0.0) * 1e3:.3f} mm, heading max "
+        f"{yaw[impact].max(initial=0.0):.2e} rad |",
     ]
 
 
