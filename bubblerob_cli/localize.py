@@ -36,6 +36,9 @@ def add_subcommands(subparsers: Any) -> None:
     )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument(
+        "--robot", default=None, help="a record --robots bag: the robot to localise (robot_1)"
+    )
+    parser.add_argument(
         "--out", default=None, help="PNG to write (default: beside the bag, BAG.localize.png)"
     )
     parser.add_argument("--seed", type=int, default=0, help="the filter's seed (episode k: +k)")
@@ -72,7 +75,7 @@ def _run(args: argparse.Namespace) -> int:
             raise LocalizeBagError(f"--seed must be an int from 0 to {2**63 - 1}, got {args.seed}")
         out = Path(args.out) if args.out is not None else localize.default_png(args.bag)
         check_outputs([Output("--out", out, (".png",))], inputs=[args.bag])
-        bag = read_bag_episodes(args.bag)
+        bag = read_bag_episodes(args.bag, args.robot)
     except (OSError, LocalizeBagError, OutputError) as error:
         report("localize", str(error))
         return 2

@@ -61,7 +61,9 @@ _ROLES = ("tf", "tf_static", "scan", "odom", "map", "base_pose_ground_truth")
 class _Collected:
     """Everything the episodes are made of, keyed by stamp (ns)."""
 
-    def __init__(self) -> None:
+    def __init__(self, frame_prefix: str = "") -> None:
+        self.frame_prefix = frame_prefix
+        """Only frames under it (one robot of a ``record --robots`` bag); ``""``: all."""
         self.maps: list[tuple[int, Grid]] = []
         self.scans: dict[int, Any] = {}
         self.tf_odom: dict[int, Pose] = {}
@@ -80,6 +82,8 @@ class _Collected:
             into[_stamp(message.header)] = _pose(pose.position, pose.orientation)
         else:
             for t in message.transforms:
+                if not t.child_frame_id.startswith(self.frame_prefix):  # another robot's
+                    continue
                 pose = _pose(t.transform.translation, t.transform.rotation)
                 if role == "tf_static":
                     self.statics[t.child_frame_id] = pose
@@ -94,13 +98,18 @@ def _grid(message: Any) -> Grid:
     return Grid(data.copy(), origin, float(info.resolution))
 
 
-def _collect(path: str | Path) -> tuple[_Collected, list[dict[str, Any]]]:
+def _collect(path: str | Path, robot: str | None) -> tuple[_Collected, list[dict[str, Any]]]:
+    from bubblerob_env.ros.bag_robots import robot_episodes
     from bubblerob_env.ros.bag_topics import BagTopicsError, bag_topic_names
     from bubblerob_env.ros.readback.summary import bag_root, find_episodes, open_reader
 
-    found = _Collected()
     with open_reader(bag_root(path)) as reader:
         _, metadata = find_episodes(reader)
+        try:
+            metadata, frame_prefix = robot_episodes(path, metadata, robot)
+        except ValueError as error:
+            raise LocalizeBagError(str(error)) from None
+        found = _Collected(frame_prefix)
         try:
             names = bag_topic_names((c.topic for c in reader.connections), metadata)
         except BagTopicsError as error:
@@ -134,14 +143,16 @@ def _geometry(scan: Any, statics: dict[str, Pose]) -> ScanGeometry:
     return ScanGeometry(angles, float(scan.range_min), float(scan.range_max), statics[frame])
 
 
-def read_bag_episodes(path: str | Path) -> BagEpisodes:
+def read_bag_episodes(path: str | Path, robot: str | None = None) -> BagEpisodes:
     """The episodes of the bag at ``path`` (see the module docstring).
+
+    ``robot``: which robot of a ``record --robots`` bag (``robot_1``).
 
     Raises:
         LocalizeBagError: No ``/map``, ``/scan`` or odometry, or no laser pose on ``/tf_static``.
         OSError: Not a bag, or a damaged one (``CorruptBagError``).
     """
-    found, metadata = _collect(path)
+    found, metadata = _collect(path, robot)
     for what, present in (("/map", found.maps), ("/scan", found.scans)):
         if not present:
             raise LocalizeBagError(f"{path} has no {what}: localisation needs the map and scans")

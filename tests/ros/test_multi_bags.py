@@ -87,6 +87,13 @@ def test_record_cli_robots_then_replay_and_info(tmp_path):
     mapped = run("map", str(bag), "--robot", "robot_1", "--out", str(tmp_path / "m.png"))
     assert mapped.returncode == 0, mapped.stderr
     assert "/map" in mapped.stdout  # the recorded ground truth (robot_1's /robot_1/map)
+    located = run(
+        "localize", str(bag), "--robot", "bubblerob_0", "--json", "--out", str(tmp_path / "l.png")
+    )
+    assert located.returncode == 0, located.stderr
+    scores = json.loads(located.stdout)
+    # tracking robot_0's scans on robot_0's poses (another robot's frames would be metres off)
+    assert scores["episodes"] == 2 and scores["position_error_mean_m"] < 0.05
     mixed = run("map", str(bag), "--out", str(tmp_path / "m2.png"))
     assert mixed.returncode == 2 and "choose one with --robot" in mixed.stderr
 
