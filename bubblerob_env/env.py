@@ -124,6 +124,14 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
     :class:`~bubblerob_env.config.EnvConfig` documents each one.
 
     ## Version History
+    - v0 (2026-11-27, issue #41): a reset puts the robot where it rests (sunk 0.26 mm into the
+      soft floor contacts, pitched 0.3 mrad; found by letting it settle once when the scene is
+      built), not at the compiled pose that touched the floor at distance 0. There each contact
+      was active or not by the sign of rounding noise, so on some seeds the first substep was a
+      free fall (wheels spinning up to 5.52 rad/s in the air), and MuJoCo Warp's float32 decided
+      differently from float64 (seed 3: 4.95 rad/s). Episodes change slightly (the first
+      substeps; the robot no longer drops and bounces); the shipped policies' test table was
+      re-run.
     - v0 (2026-11-26, issue #29): the vector entry point (``gym.make_vec(...,
       vectorization_mode="vector_entry_point")``) takes ``backend`` (``"cpu"``, the default:
       unchanged, bit for bit; ``"warp"``: MuJoCo Warp, :mod:`bubblerob_env.mjwarp`) and

@@ -24,6 +24,7 @@ from typing import Any, Generic, Protocol, TypeVar, cast, overload
 import gymnasium as gym
 import mujoco
 import numpy as np
+from numpy.typing import NDArray
 
 from bubblerob_env import names
 from bubblerob_env.arena import (
@@ -57,6 +58,10 @@ DIVERGENCE_WARNINGS = (
 """MuJoCo resets the state itself after these: the episode cannot go on."""
 _BADQACC, _BADQPOS, _BADQVEL = (int(w) for w in DIVERGENCE_WARNINGS)
 T = TypeVar("T")
+
+
+_SETTLE_SECONDS = 3.0
+"""Simulated time the robot rests on the floor, once per scene, to find its resting pose."""
 
 
 class Scene:
@@ -187,7 +192,31 @@ class Scene:
         """The robot's base body id."""
         self.root_qpos = int(self.model.joint(names.ROOT_JOINT).qposadr[0])
         """Address of the robot's free joint in ``qpos`` (position, then quaternion w, x, y, z)."""
+        self.rest_height, self.rest_tilt = self._resting_pose()
+        """The free joint's height and yaw-free tilt (w, x, y, z) where the robot rests."""
         # The step's sensordata addresses are the kernel's settings (core/batch.py).
+
+    def _resting_pose(self) -> tuple[float, NDArray[np.float64]]:
+        """The free joint's height and tilt (a quaternion, no yaw) of the robot at rest.
+
+        The compiled pose puts every wheel and the caster exactly on the floor (distance 0). A
+        contact at distance 0 is active or not by the sign of rounding noise (float64 here,
+        float32 in MuJoCo Warp), so resets from it fell freely for one substep on some seeds and
+        not on others (issue #41). Resets start from where the robot rests instead (sunk into
+        the soft contacts, every contact clearly active): found by letting it settle with the
+        motors holding, on an empty floor (the obstacle slots are compiled below it).
+        """
+        model, data = self.model, mujoco.MjData(self.model)
+        for _ in range(math.ceil(_SETTLE_SECONDS / model.opt.timestep)):
+            mujoco.mj_step(model, data)
+        adr = self.root_qpos
+        w, x, y, z = data.qpos[adr + 3 : adr + 7]
+        yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+        tilt = np.empty(4)
+        unyaw = np.array([math.cos(yaw / 2), 0.0, 0.0, -math.sin(yaw / 2)])
+        mujoco.mju_mulQuat(tilt, unyaw, data.qpos[adr + 3 : adr + 7])
+        mujoco.mju_normalize4(tilt)
+        return float(data.qpos[adr + 2]), tilt
 
     def _bind_views(self) -> None:
         # A view into self.data: rebuilt after unpickling and for a clone's new data.
@@ -222,11 +251,12 @@ class Scene:
         return layout
 
     def place_robot(self, pose: tuple[float, float, float]) -> None:
-        """Put the robot at ``pose`` (x, y, yaw) on the floor (its free joint's ``qpos``)."""
+        """Put the robot at ``pose`` (x, y, yaw), resting on the floor (its free joint's qpos)."""
         x, y, yaw = pose
         adr = self.root_qpos
-        self.data.qpos[adr : adr + 3] = (x, y, self.model.body_pos[self.base_body][2])
-        self.data.qpos[adr + 3 : adr + 7] = (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
+        self.data.qpos[adr : adr + 3] = (x, y, self.rest_height)
+        heading = np.array([math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)])
+        mujoco.mju_mulQuat(self.data.qpos[adr + 3 : adr + 7], heading, self.rest_tilt)
 
     def forward(self) -> None:
         """``mj_forward`` after :meth:`place_layout`; a fixed start pose must be free."""

@@ -255,9 +255,14 @@ def test_other_geoms_fall_back_to_mj_multiray(tmp_path):
     assert env.unwrapped.laser_spec.caster == "mujoco"
     obs, _ = env.reset(seed=0)
     front = obs["laser"][env.unwrapped.laser_spec.num_rays // 2]
-    laser = env.unwrapped.data.site_xpos[env.unwrapped.model.site("laser_link").id]
-    # The ray along +x meets the ball (centre (1, 0, 0.1), radius 0.1) at its laser height.
-    expected = 1.0 - laser[0] - math.sqrt(0.1**2 - laser[1] ** 2 - (laser[2] - 0.1) ** 2)
+    site = env.unwrapped.model.site("laser_link").id
+    laser = env.unwrapped.data.site_xpos[site]
+    # The ray along the laser's x axis (the robot rests pitched 0.3 mrad, issue #41) meets the
+    # ball (centre (1, 0, 0.1), radius 0.1).
+    ray = env.unwrapped.data.site_xmat[site].reshape(3, 3)[:, 0]
+    offset = laser - np.array([1.0, 0.0, 0.1])
+    along = float(offset @ ray)
+    expected = -along - math.sqrt(along**2 - (float(offset @ offset) - 0.1**2))
     assert front == pytest.approx(expected, abs=1e-6)
     with pytest.raises(ValueError, match="ball is a sphere"):
         gym.make("BubbleRob-v0", xml_file=str(scene), laser_backend="analytic")

@@ -85,3 +85,22 @@ def test_layouts_are_the_cpu_envs() -> None:
         assert math.isclose(info["yaw"][world], cpu_info["yaw"], abs_tol=1e-5)
         assert np.abs(obs["laser"][world] - cpu_obs["laser"]).max() < LASER_TOLERANCE
     assert env.arena_seeds.tolist() == [11, 7, 5]
+
+
+def test_the_first_steps_after_a_reset_are_the_cpu_envs() -> None:
+    """Issue #41: seeds 0-3, the same actions; before, world 3 was 0.56 rad/s apart."""
+    n = 4
+    env = WarpVectorEnv(n, device=DEVICE, max_episode_steps=10, layout_bank=8)
+    env.reset(seed=0)
+    cpus = [gym.make("BubbleRob-v0") for _ in range(n)]
+    for seed, cpu in enumerate(cpus):
+        cpu.reset(seed=seed)
+    actions = np.random.default_rng(0).uniform(-0.2, 1.0, (5, n, 2)).astype(np.float32)
+    for action in actions:
+        env.step(action)
+        qpos, qvel = env.worlds.data.qpos.numpy(), env.worlds.data.qvel.numpy()
+        for world, cpu in enumerate(cpus):
+            cpu.step(action[world])
+            data = cpu.unwrapped.data
+            assert np.abs(data.qpos[:7] - qpos[world, :7]).max() < 1e-5, world
+            assert np.abs(data.qvel - qvel[world]).max() < 2e-3, world
