@@ -106,8 +106,14 @@ def _recorded(env: gym.Env[Any, Any], record: str) -> gym.Env[Any, Any]:
 def _run(args: argparse.Namespace) -> int:
     if args.seed is not None and not 0 <= args.seed <= _MAX_SEED:
         fail("teleop", f"--seed must be from 0 to {_MAX_SEED}, got {args.seed}")
+    if args.robot is not None and args.ros is not None:
+        args.namespace = args.robot  # `bubblerob node --robots N`: robot i under /robot_i
     if args.ros is not None:
         return _run_ros(args)
+    if args.robots != 1 or args.robot is not None:
+        from bubblerob_cli.teleop.robots import run_world_teleop
+
+        return run_world_teleop(args)
     kwargs: dict[str, Any] = {"action_type": "twist"}  # the keys drive speed and turn rate
     if args.start_pose is not None:
         kwargs["start_pose"] = tuple(args.start_pose)
@@ -192,6 +198,21 @@ def add_subcommands(subparsers: Any) -> None:
     _add_local_options(parser)
     add_env_arguments(parser)
     _add_ros_options(parser)
+    parser.add_argument(
+        "--robots", type=int, default=1, metavar="N", help="N robots in one world (local)"
+    )
+    parser.add_argument(
+        "--robot",
+        default=None,
+        metavar="NAME",
+        help="the robot the keys drive (robot_1); locally the others follow --policy; with "
+        "--ros: that robot of `bubblerob node --robots N` (its /robot_i namespace)",
+    )
+    parser.add_argument(
+        "--policy",
+        default="reactive",
+        help="with --robots: what drives the other robots (default reactive)",
+    )
     parser.add_argument(
         "--max-seconds",
         type=float,
