@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 pytest.importorskip("pettingzoo")
-from pettingzoo.test import parallel_api_test  # noqa: E402
+from pettingzoo.test import parallel_api_test, parallel_seed_test  # noqa: E402
 
 import bubblerob_env  # noqa: E402
 from bubblerob_env.arena import ArenaLayout  # noqa: E402
@@ -19,12 +19,18 @@ RADIUS, CLEARANCE = 0.11, 0.25  # BubbleRob's radius, the default start_clearanc
 FAST: dict[str, Any] = {"laser_num_rays": 36}
 
 
-def test_pettingzoo_api_test_passes_with_goals_dict_and_flat() -> None:
+def test_pettingzoo_api_and_seed_tests_pass_with_goals_dict_and_flat() -> None:
     for obs_mode in ("dict", "flat"):
         env = bubblerob_env.parallel_env(
             num_robots=3, task="nav", max_episode_steps=60, obs_mode=obs_mode, **FAST
         )
         parallel_api_test(env, num_cycles=80)
+    parallel_seed_test(
+        lambda: bubblerob_env.parallel_env(
+            num_robots=3, task="nav", max_episode_steps=40, laser_noise_std=0.01, **FAST
+        ),
+        num_cycles=40,
+    )
 
 
 def test_circle_goals_are_the_antipodes_and_twenty_robots_get_room_to_pass() -> None:
