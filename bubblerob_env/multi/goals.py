@@ -23,14 +23,27 @@ from bubblerob_env.arena import ArenaLayout
 from bubblerob_env.config import EnvConfig
 from bubblerob_env.tasks.goals import NavProblem, clearance_grid, draw_goal, path_length, plan_path
 from bubblerob_env.tasks.nav import planned_problem
-from bubblerob_env.tasks.nav_rules import WANDERING_PARTS, NavSettings, goal_reading
+from bubblerob_env.tasks.nav_rules import NAV_ARGUMENTS, WANDERING_PARTS, NavSettings, goal_reading
 
-__all__ = ["TASKS", "WorldGoals", "circle_arena_size"]
+__all__ = ["TASKS", "WorldGoals", "circle_arena_size", "task_settings"]
 
 TASKS = ("wander", "nav")
 """``parallel_env``'s tasks: ``BubbleRob-v0``'s obstacle avoidance, or each robot to a goal."""
 
 Pose = tuple[float, float, float]
+
+
+def task_settings(task: str, kwargs: dict[str, Any]) -> NavSettings | None:
+    """The Nav task's settings, its arguments taken out of ``kwargs``; None for ``"wander"``.
+
+    An unknown task, a Nav argument with ``task="wander"`` or a bad value: one ``ValueError``.
+    """
+    if task not in TASKS:
+        raise ValueError(f"task must be one of {list(TASKS)}, got {task!r}")
+    arguments = {name: kwargs.pop(name) for name in NAV_ARGUMENTS if name in kwargs}
+    if arguments and task != "nav":
+        raise ValueError(f"{sorted(arguments)} are arguments of task='nav', not {task!r}")
+    return NavSettings.checked(**arguments) if task == "nav" else None
 
 
 def circle_arena_size(config: EnvConfig, num_robots: int) -> float:

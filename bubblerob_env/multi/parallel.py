@@ -33,12 +33,12 @@ from bubblerob_env.config import EnvConfig
 from bubblerob_env.core.kernel import OUT
 from bubblerob_env.core.worlds import WorldBatch
 from bubblerob_env.infos import robot_info
-from bubblerob_env.multi.goals import TASKS, WorldGoals, circle_arena_size
+from bubblerob_env.multi.goals import WorldGoals, circle_arena_size, task_settings
 from bubblerob_env.multi.placement import check_fits, sample_world
 from bubblerob_env.multi.scene import WorldScene, agent_name, partner_name
 from bubblerob_env.odometry import Odometry, draw_slip
 from bubblerob_env.rendering import EnvViews
-from bubblerob_env.tasks.nav_rules import NAV_ARGUMENTS, NavSettings, spaces_with_goal, with_goal
+from bubblerob_env.tasks.nav_rules import spaces_with_goal, with_goal
 
 __all__ = ["MultiRobotEnv", "parallel_env"]
 
@@ -81,12 +81,7 @@ class MultiRobotEnv(ParallelEnv[str, Observation, NDArray[np.float32]]):  # type
         task: str = "wander",
         **kwargs: Any,
     ) -> None:
-        if task not in TASKS:
-            raise ValueError(f"task must be one of {list(TASKS)}, got {task!r}")
-        task_kwargs = {k: kwargs.pop(k) for k in NAV_ARGUMENTS if k in kwargs}
-        if task_kwargs and task != "nav":
-            raise ValueError(f"{sorted(task_kwargs)} are arguments of task='nav', not {task!r}")
-        settings = NavSettings.checked(**task_kwargs) if task == "nav" else None
+        settings = task_settings(task, kwargs)
         if isinstance(num_robots, bool) or not isinstance(num_robots, int) or num_robots < 1:
             raise ValueError(f"num_robots must be an integer >= 1, got {num_robots!r}")
         if isinstance(max_episode_steps, bool) or not isinstance(max_episode_steps, int):
