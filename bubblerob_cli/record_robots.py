@@ -136,30 +136,20 @@ def replay_world_bag(bag: Path) -> int | None:
 
 def robot_summary(summary: Any, robot: str) -> Any:
     """``summary`` (``read_summary``'s) with one robot's topics and episodes; bad name: exit 2."""
+    from bubblerob_env.ros.bag_robots import robot_episodes
     from bubblerob_env.ros.messages.topics import Topics
 
-    names = sorted({str(meta["robot"]) for meta in _all_episodes(summary.path) if "robot" in meta})
-    index = robot.rsplit("_", 1)[-1]
-    chosen = [n for n in names if n.rsplit("_", 1)[-1] == index and index.isdigit()]
-    if robot.rsplit("_", 1)[0] not in ("robot", *{n.rsplit("_", 1)[0] for n in names}):
-        chosen = []
-    if not chosen:
-        known = ", ".join(f"robot_{n.rsplit('_', 1)[-1]}" for n in names) or "none: one robot"
-        report("info", f"--robot {robot}: not a robot of {summary.path} (robots: {known})")
-        raise SystemExit(2)
-    episodes = [m for m in _all_episodes(summary.path) if m.get("robot") == chosen[0]]
-    mine = set(Topics.from_dict(episodes[0]["topics"]).resolved().values())
-    topics = tuple(t for t in summary.topics if t.name in mine)
+    try:
+        episodes, _ = robot_episodes(summary.path, summary.episodes, robot)
+    except ValueError as error:
+        report("info", str(error))
+        raise SystemExit(2) from None
+    names = Topics.from_dict(episodes[0]["topics"]).resolved()
+    topics = tuple(t for t in summary.topics if t.name in set(names.values()))
     return replace(
         summary,
         topics=topics,
         message_count=sum(t.count for t in topics),
         episodes=tuple(episodes),
-        episode_topic=Topics.from_dict(episodes[0]["topics"]).resolved()["episode"],
+        episode_topic=names["episode"],
     )
-
-
-def _all_episodes(bag: Path) -> list[dict[str, Any]]:
-    from bubblerob_env.ros.world_record import episode_records
-
-    return episode_records(bag)
