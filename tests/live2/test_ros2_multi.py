@@ -79,3 +79,53 @@ def test_one_clock_and_each_robot_its_own_cmd_vel_and_watchdog(start_node):
     assert driven["moving"]["wz"] > 1.0 and abs(driven["idle"]["wz"]) < 0.05
     assert still1["wz"] > 1.0  # robot_1 still turning: its own watchdog did not trip
     assert node.alive()
+    node.stop()  # the sync test's nodes are the graph's only ones
+
+
+SCANS = """
+import json, time, rclpy
+from rclpy.qos import qos_profile_sensor_data
+from sensor_msgs.msg import LaserScan
+from std_msgs.msg import Bool, Float32
+rclpy.init()
+node = rclpy.create_node("multi_scans")
+scans = []
+node.create_subscription(
+    LaserScan, "/robot_1/scan", lambda m: scans.append(list(m.ranges)), qos_profile_sensor_data
+)
+wheel = node.create_publisher(Float32, "/robot_0/leftMotorSpeed", 10)
+trigger = node.create_publisher(Bool, "/triggerNextStep", 10)
+deadline = time.monotonic() + 30
+while (node.count_publishers("/robot_1/scan") < 1 or wheel.get_subscription_count() < 1
+       or trigger.get_subscription_count() < 1) and time.monotonic() < deadline:
+    rclpy.spin_once(node, timeout_sec=0.05)
+time.sleep(0.5)
+rclpy.spin_once(node, timeout_sec=0.1)
+scans.clear()  # the reset's scan, if it came: no step's
+for _ in range(12):
+    wheel.publish(Float32(data=4.0))
+    rclpy.spin_once(node, timeout_sec=0.05)
+    count = len(scans)
+    trigger.publish(Bool(data=True))
+    end = time.monotonic() + 5
+    while len(scans) == count and time.monotonic() < end:
+        rclpy.spin_once(node, timeout_sec=0.05)
+print(json.dumps(scans))
+"""
+
+
+def _sync_scans(start_node) -> list[list[float]]:
+    node = start_node("--robots", "2", "--seed", "5", "--sync")
+    try:
+        result = subprocess.run(
+            [str(ROS2_PYTHON), "-c", SCANS], env=ros2_env(), cwd=ROOT, capture_output=True,
+            text=True, timeout=90, check=True,
+        )  # fmt: skip
+        return json.loads(result.stdout.splitlines()[-1])
+    finally:
+        node.stop()
+
+
+def test_sync_mode_gives_the_same_scans_from_the_same_seed(start_node):
+    first, second = _sync_scans(start_node), _sync_scans(start_node)
+    assert len(first) == 12 and first == second
