@@ -209,13 +209,20 @@ def warp_envs(
     World ``i`` is seeded ``seed + i`` (the CPU env's arena for that seed); ``env_wrapper`` is
     applied as ``--vec-env batched`` applies it.
     """
-    import gymnasium as gym
+    import importlib.util
 
-    from train.sb3_warp import WarpSB3VecEnv
+    import gymnasium as gym
 
     spec = gym.spec(env_id)
     if spec.entry_point != "bubblerob_env.env:BubbleRobEnv":
         raise ValueError(f"--vec-env warp steps BubbleRob-v0 or PioneerP3DX-v0, not {env_id!r}")
+    if importlib.util.find_spec("mujoco_warp") is None:
+        raise ValueError(
+            "--vec-env warp needs MuJoCo Warp: pip install 'bubblerob[warp]' "
+            "(mujoco-warp and warp-lang)"
+        )
+    from train.sb3_warp import WarpSB3VecEnv
+
     envs: Any = WarpSB3VecEnv(count, **{**spec.kwargs, **env_kwargs})
     envs.seed(seed)
     return batch_wrapped(envs, env_id, env_kwargs, env_wrapper)

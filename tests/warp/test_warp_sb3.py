@@ -102,3 +102,22 @@ def test_train_vec_env_warp_saves_a_policy_that_drives_the_cpu_env(tmp_path: Pat
         if terminated or truncated:
             break
     assert truncated or terminated
+
+
+def test_vec_env_warp_names_what_to_install_and_the_envs_it_steps(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import importlib.util
+
+    from train.envs import warp_envs
+
+    with pytest.raises(ValueError, match="BubbleRob-v0 or PioneerP3DX-v0, not 'CartPole-v1'"):
+        warp_envs("CartPole-v1", 1, 0, {})
+    find_spec = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util,
+        "find_spec",
+        lambda name, *a: None if name == "mujoco_warp" else find_spec(name, *a),
+    )
+    with pytest.raises(ValueError, match=r"pip install 'bubblerob\[warp\]'"):
+        warp_envs("BubbleRob-v0", 1, 0, {})
