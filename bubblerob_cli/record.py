@@ -124,6 +124,9 @@ def _add_bag_readers(subparsers: Any) -> None:
     )
     replay.add_argument("bag", type=Path, help="a .bag, .mcap or .db3 file, or a ROS 2 bag folder")
     replay.add_argument("--episodes", type=int, default=None, help="replay only the first N")
+    replay.add_argument(
+        "--robot", default=None, help="a record --robots bag: compare one robot's topics (robot_1)"
+    )
     replay.set_defaults(handler=_replay)
 
     recover = subparsers.add_parser(
@@ -332,7 +335,7 @@ def _replay(args: argparse.Namespace) -> int:
         return 2
     from bubblerob_cli.record_robots import replay_world_bag
 
-    status = replay_world_bag(args.bag)
+    status = replay_world_bag(args.bag, args.robot)
     if status is not None:
         return status
     try:

@@ -117,18 +117,34 @@ def _driver(args: argparse.Namespace, kwargs: dict[str, Any]) -> Any:
     return drive
 
 
-def replay_world_bag(bag: Path) -> int | None:
-    """``replay`` of a ``record --robots`` bag (exit status), or ``None`` for another bag."""
-    try:
-        from bubblerob_env.ros.world_record import is_world_bag, replay_world
+def replay_world_bag(bag: Path, robot: str | None = None) -> int | None:
+    """``replay`` of a ``record --robots`` bag (exit status), or ``None`` for another bag.
 
-        if not is_world_bag(bag):
-            return None
+    ``robot`` (``robot_1``): compare that robot's own topics only (the world is re-simulated).
+    """
+    try:
+        from bubblerob_env.ros.world_record import world_robots
+
+        agents = world_robots(bag)
     except Exception:  # noqa: BLE001 - not readable as one: the one-robot replay says why
+        agents = []
+    if not agents:
+        if robot is not None:
+            report("replay", f"--robot {robot}: {bag} holds one robot (leave --robot out)")
+            return 2
         return None
-    difference = replay_world(bag)
+    from bubblerob_env.ros.bag_robots import match_robot
+    from bubblerob_env.ros.world_record import replay_world
+
+    agent = None if robot is None else match_robot(agents, robot)
+    if robot is not None and agent is None:
+        names = ", ".join(f"robot_{a.rpartition('_')[2]}" for a in agents)
+        report("replay", f"--robot {robot}: not a robot of {bag} (robots: {names})")
+        return 2
+    difference = replay_world(bag, agent)
+    what = "every message of every robot" if agent is None else f"every message of {robot}"
     if difference is None:
-        print(f"{bag}: every message of every robot replayed identical")
+        print(f"{bag}: {what} replayed identical")
         return 0
     print(f"{bag}: replay differs: {difference}")
     return 1

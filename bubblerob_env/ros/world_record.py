@@ -159,11 +159,14 @@ def _actions(path: Path, episodes: list[dict[str, Any]]) -> dict[str, list[Any]]
     return actions
 
 
-def replay_world(path: str | Path) -> str | None:
+def replay_world(path: str | Path, topics_of: str | None = None) -> str | None:
     """Re-simulate a ``record --robots`` bag; ``None`` if every message is equal, else where not.
 
+    The whole world is re-simulated (the robots act on each other); ``topics_of``: compare only
+    that agent's own topics (``bubblerob_1``), else every topic.
+
     Raises:
-        ValueError: Not a bag of several robots.
+        ValueError: Not a bag of several robots, or ``topics_of`` not one of its robots.
     """
     import bubblerob_env
 
@@ -195,9 +198,18 @@ def replay_world(path: str | Path) -> str | None:
             facts={k: v for k, v in first.items() if k not in _SET_KEYS},
         )
         env.close()
-        return _first_difference(_messages(source), _messages(again))
+        recorded, replayed = _messages(source), _messages(again)
+    if topics_of is not None:
+        mine = [m for m in episodes if m["robot"] == topics_of]
+        if not mine:
+            raise ValueError(f"{topics_of} is not a robot of {source} (robots: {robots})")
+        names = set(Topics.from_dict(mine[0]["topics"]).resolved().values()) - _SHARED
+        recorded = {t: v for t, v in recorded.items() if t in names}
+        replayed = {t: v for t, v in replayed.items() if t in names}
+    return _first_difference(recorded, replayed)
 
 
+_SHARED = {"/tf", "/tf_static"}  # every robot's transforms: a robot's own topics leave them out
 _WORLD_KEYS = ("num_robots", "robot", "scenario", "max_episode_steps")
 _SET_KEYS = frozenset({
     "episode", "seed", "env_id", "env_kwargs", "robots", "robot", "frame_prefix",

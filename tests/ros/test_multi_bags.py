@@ -79,6 +79,8 @@ def test_record_cli_robots_then_replay_and_info(tmp_path):
     replayed = run("replay", str(bag))
     assert replayed.returncode == 0, replayed.stdout + replayed.stderr
     assert "identical" in replayed.stdout
+    one = run("replay", str(bag), "--robot", "robot_1")
+    assert one.returncode == 0 and "every message of robot_1" in one.stdout, one.stdout + one.stderr
     info = run("info", str(bag), "--robot", "robot_1")
     assert info.returncode == 0, info.stderr
     assert "/robot_1/scan" in info.stdout and "/robot_0/scan" not in info.stdout
