@@ -77,17 +77,23 @@ def record_world(
     compression: str | None = None,
     overwrite: bool = False,
     facts: Mapping[str, Any] | None = None,
+    clock: str | None = "/clock",
 ) -> tuple[Path, int]:
-    """Record one episode of ``env`` per seed into one bag; ``(the bag's path, steps)``."""
+    """Record one episode of ``env`` per seed into one bag; ``(the bag's path, steps)``.
+
+    ``clock``: the world's ``/clock`` topic, one message per frame of the world (``None``: none).
+    """
     bag = open_bag(path, fmt, distro, compression, overwrite)
     steps = 0
     try:
         world = WorldStreams(env, topics, start_time_ns, map_resolution, kwargs)
         for k in range(env.num_robots):
             world.add_sink(k, _RobotBagView(bag), bag.distro)
+        tick = _clock_writer(bag, clock)
         base = {"distro": bag.distro, "format": fmt, "map_resolution": map_resolution}
         for seed in seeds:
             observations, _ = world.reset(seed, {**base, **(facts or {})})
+            tick(world.last_ns)
             starts = dict.fromkeys(env.agents, True)
             while env.agents:
                 actions = {}
@@ -95,11 +101,32 @@ def record_world(
                     actions[agent] = driver(agent, observations[agent], starts[agent])
                     starts[agent] = False
                 observations = world.step(actions)[0]
+                tick(world.last_ns)
                 steps += 1
         world.flush()
     finally:
         bag.close()
     return bag.path, steps
+
+
+def _clock_writer(bag: BagSink, topic: str | None) -> Callable[[int | None], None]:
+    """``tick(stamp_ns)``: the world's clock at a frame, into ``bag`` (nothing without a topic)."""
+    if topic is None:
+        return lambda stamp_ns: None
+    from bubblerob_env.ros.messages.distros import serialize, typestore
+    from bubblerob_env.ros.messages.topics import MSGTYPES
+
+    msgtype, types = MSGTYPES["clock"], typestore(bag.distro).types
+    bag.add_topic(topic, msgtype)
+
+    def tick(stamp_ns: int | None) -> None:
+        assert stamp_ns is not None
+        sec, nanosec = divmod(stamp_ns, 10**9)
+        time = types["builtin_interfaces/msg/Time"](sec=sec, nanosec=nanosec)
+        data = serialize(bag.distro, types[msgtype](clock=time), msgtype)
+        bag.write_batch([(topic, stamp_ns, data)])
+
+    return tick
 
 
 def episode_records(path: Path) -> list[dict[str, Any]]:
@@ -183,6 +210,7 @@ def replay_world(path: str | Path, topics_of: str | None = None) -> str | None:
     queues = {robot: iter(actions) for robot, actions in _actions(source, episodes).items()}
     env = bubblerob_env.parallel_env(**first["env_kwargs"])
     kind = "ros1" if source.suffix == ".bag" else first["format"]
+    recorded = _messages(source)
     with tempfile.TemporaryDirectory(prefix="bubblerob_replay_") as scratch:
         again, _ = record_world(
             Path(scratch) / ("again.bag" if kind == "ros1" else "again"),
@@ -196,9 +224,10 @@ def replay_world(path: str | Path, topics_of: str | None = None) -> str | None:
             fmt=kind,
             distro=first["distro"],
             facts={k: v for k, v in first.items() if k not in _SET_KEYS},
+            clock="/clock" if "/clock" in recorded else None,
         )
         env.close()
-        recorded, replayed = _messages(source), _messages(again)
+        replayed = _messages(again)
     if topics_of is not None:
         mine = [m for m in episodes if m["robot"] == topics_of]
         if not mine:
@@ -209,7 +238,11 @@ def replay_world(path: str | Path, topics_of: str | None = None) -> str | None:
     return _first_difference(recorded, replayed)
 
 
-_SHARED = {"/tf", "/tf_static"}  # every robot's transforms: a robot's own topics leave them out
+_SHARED = {
+    "/tf",
+    "/tf_static",
+    "/clock",
+}  # every robot's transforms: a robot's own topics leave them out
 _WORLD_KEYS = ("num_robots", "robot", "scenario", "max_episode_steps")
 _SET_KEYS = frozenset({
     "episode", "seed", "env_id", "env_kwargs", "robots", "robot", "frame_prefix",

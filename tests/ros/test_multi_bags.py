@@ -46,6 +46,9 @@ def test_one_bag_holds_every_robot_and_replays_exactly(tmp_path, fmt):
     bag = read(path)
     assert bag["connections"].count("/tf") == 1 and bag["connections"].count("/tf_static") == 1
     assert len(bag["/robot_0/scan"]) == len(bag["/robot_1/scan"]) == 2 * (STEPS + 1)
+    clock = [m.clock.sec * 10**9 + m.clock.nanosec for m in bag["/clock"]]
+    scans = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in bag["/robot_1/scan"]]
+    assert clock == scans and clock[0] == START  # one world clock, a tick per frame
     odom = bag["/robot_1/odom"]
     assert {(m.header.frame_id, m.child_frame_id) for m in odom} == {
         ("robot_1/odom", "robot_1/base_link")
