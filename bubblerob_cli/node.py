@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 from bubblerob_cli.args import add_env_arguments, make_env
 from bubblerob_cli.errors import fail
+from bubblerob_cli.node_robots import add_robots_argument
 from bubblerob_env.extras import require_extra
 from bubblerob_env.ros.live.node import LAUNCH_DIR
 from bubblerob_env.ros.messages.topics import PRESETS
@@ -84,14 +85,7 @@ def add_subcommands(subparsers: Any) -> None:
         help="topic names; tutorial: with --robots, each robot's names end in its index "
         "(/leftMotorSpeed0, as the first tutorial's suffix) instead of a /robot_i namespace",
     )
-    node.add_argument(
-        "--robots",
-        type=int,
-        default=1,
-        metavar="N",
-        help="N robots in one world (one /clock; robot i's topics under /robot_i, frames "
-        "robot_i/...; default 1: today's names)",
-    )
+    add_robots_argument(node)
     node.add_argument("--camera", action="store_true", help="publish the camera (64x64)")
     node.add_argument(
         "--camera-size",

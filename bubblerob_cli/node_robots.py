@@ -8,7 +8,19 @@ from typing import Any
 
 from bubblerob_cli.errors import fail
 
-__all__ = ["run_robots"]
+__all__ = ["add_robots_argument", "run_robots"]
+
+
+def add_robots_argument(node: argparse.ArgumentParser) -> None:
+    """``--robots N`` of ``bubblerob node``."""
+    node.add_argument(
+        "--robots",
+        type=int,
+        default=1,
+        metavar="N",
+        help="N robots in one world (one /clock; robot i's topics under /robot_i, frames "
+        "robot_i/...; default 1: today's names)",
+    )
 
 
 def run_robots(args: argparse.Namespace) -> int:
