@@ -89,7 +89,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="step the envs in this process (dummy), one subprocess each (subproc), or as one "
         "native batch on threads (batched; BubbleRob-v0 only); worlds: N_ENVS worlds of --robots "
         "robots, one slot per robot, for one policy shared by all; warp: N_ENVS MuJoCo Warp "
-        "worlds on Warp's default device (a GPU where there is one), evaluated on the CPU env",
+        "worlds on a GPU where there is one (else Warp's CPU device), evaluated on the CPU env",
     )
     parser.add_argument(
         "--robots",
