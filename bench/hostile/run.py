@@ -191,9 +191,16 @@ def load_cases(path: Path, only: str | None = None, sample: int | None = None) -
 
 
 def fixtures_in(work: Path) -> dict[str, str]:
-    """Make the fixtures (in a process of their own, as a user's session would)."""
+    """Make the fixtures (in a process of their own, as a user's session would).
+
+    One folder per commit of this checkout: bags recorded by another version of the env need
+    not replay in this one.
+    """
+    head = subprocess.run(
+        ["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True
+    ).stdout.strip()
     done = subprocess.run(
-        [PYTHON, str(HERE / "fixtures.py"), str(work / "fixtures")],
+        [PYTHON, str(HERE / "fixtures.py"), str(work / f"fixtures-{head or 'here'}")],
         env={**os.environ, "PYTHONPATH": str(ROOT)},
         capture_output=True,
         text=True,

@@ -26,7 +26,13 @@ import bubblerob_env  # noqa: F401 - registers the env ids
 def run_snippet(code: str) -> tuple[int, str, str]:
     """Run ``code``; its status, standard output and error (see the module docstring)."""
     out, err = io.StringIO(), io.StringIO()
-    scope: dict[str, Any] = {"gym": gym, "np": np, "warnings": warnings, "sys": sys}
+    scope: dict[str, Any] = {
+        "gym": gym,
+        "np": np,
+        "warnings": warnings,
+        "sys": sys,
+        "bubblerob_env": bubblerob_env,
+    }
     status = 0
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
         try:
