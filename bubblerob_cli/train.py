@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from bubblerob_cli.args import HelpFormatter
+from bubblerob_cli.foxglove_view import add_foxglove_option, quiet_sdk_log
 from bubblerob_cli.ray.sweep import add_sweep_arguments
 from bubblerob_env.extras import require_extra
 from train.checks import check_hyperparams, check_train_arguments, parse_overrides
@@ -125,6 +126,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="override a hyperparameter (YAML value), e.g. --set n_steps=512",
     )
     parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    add_foxglove_option(parser)  # the first training env, within 4% of the wall time
     add_sweep_arguments(parser)  # --ray, --seeds (Ray is imported only to run)
 
 
@@ -172,6 +174,22 @@ def run(args: argparse.Namespace, command: str, program: str) -> int:
         where = f"--out {out}: " if isinstance(error, OSError) else ""
         print(f"{program}: {where}{reason}", file=sys.stderr)
         return 2
+    if args.foxglove is not None and (sweep or args.vec_env != "dummy" or not args.foxglove[1]):
+        print(
+            f"{program}: --foxglove watches one run's first env: a port (not 0), --vec-env "
+            "dummy, no --ray or --seeds",
+            file=sys.stderr,
+        )
+        return 2
+    if args.foxglove is not None:
+        require_extra("foxglove", f"{program} --foxglove")
+        quiet_sdk_log("train")
+        host, port = args.foxglove
+        print(
+            f"{program}: the first training env goes to Foxglove at ws://{host}:{port} (whole "
+            "episodes, within 4% of the wall time)",
+            flush=True,
+        )
     if sweep:  # one run per --seeds seed, as Ray tasks
         from bubblerob_cli.ray.sweep import run_sweep
 
@@ -190,6 +208,7 @@ def run(args: argparse.Namespace, command: str, program: str) -> int:
         overrides=overrides,
         vec_env=args.vec_env,
         torch_threads=args.torch_threads,
+        foxglove=args.foxglove,
         robots=args.robots or 8,
     )
     print(f"saved {final} (best model: {out / 'best_model.zip'}, logs: {out / 'tb'})")

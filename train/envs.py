@@ -46,15 +46,17 @@ def training_envs(
     eval_episodes: int,
     vec_env: str,
     robots: int = 8,
+    foxglove: tuple[str, int] | None = None,
 ) -> tuple[Any, Any]:
     """The training envs and the evaluation env of ``config`` (rl-zoo's hyperparameters).
 
     Both wrapped in ``env_wrapper``, then VecNormalize (``normalize: true``; the evaluation's not
-    updated) and VecFrameStack (``frame_stack: N``), as rl_zoo3 stacks them.
+    updated) and VecFrameStack (``frame_stack: N``), as rl_zoo3 stacks them. With ``foxglove``
+    (host, port) the first training env is published to Foxglove (:class:`WatchFirst`).
     """
     from stable_baselines3.common.vec_env import VecFrameStack, VecNormalize
 
-    envs, eval_env = _unwrapped_envs(env_id, config, seed, eval_episodes, vec_env, robots)
+    envs, eval_env = _unwrapped_envs(env_id, config, seed, eval_episodes, vec_env, robots, foxglove)
     if config.get("normalize", False):
         # rl-zoo's "normalize: true": running mean/std of observations (and returns for training).
         keys = non_image_keys(envs.observation_space)
@@ -74,6 +76,7 @@ def _unwrapped_envs(
     eval_episodes: int,
     vec_env: str,
     robots: int = 8,
+    foxglove: tuple[str, int] | None = None,
 ) -> tuple[Any, Any]:
     """The training and evaluation envs with ``env_wrapper``, before normalisation."""
     from stable_baselines3.common.env_util import make_vec_env
@@ -83,6 +86,8 @@ def _unwrapped_envs(
     wrap = wrapper_class(config.get("env_wrapper"))
     count = int(config["n_envs"])
     vec_cls = SubprocVecEnv if count > 1 and vec_env == "subproc" else DummyVecEnv
+    if foxglove is not None and vec_env != "dummy":
+        raise ValueError("--foxglove watches a training env stepped here: use --vec-env dummy")
     if vec_env == "batched":
         spec = config.get("env_wrapper")
         envs = batched_envs(env_id, count, seed, env_kwargs, spec)
@@ -99,7 +104,7 @@ def _unwrapped_envs(
         envs = warp_envs(env_id, count, seed, env_kwargs, spec)
         return envs, single_robot_eval_envs(env_id, eval_episodes, env_kwargs, spec)
     envs = make_vec_env(
-        env_id,
+        env_id if foxglove is None else WatchFirst(env_id, foxglove),
         n_envs=count,
         seed=seed,
         env_kwargs=env_kwargs,
@@ -262,3 +267,32 @@ def batch_wrapped(envs: Any, env_id: str, env_kwargs: dict[str, Any], env_wrappe
         raise
     finally:
         probe.close()
+
+
+WATCH_BUDGET = 0.04
+"""The fraction of the wall time publishing may take (``FoxglovePublisher``'s ``budget``)."""
+
+
+class WatchFirst:
+    """Makes the envs of ``make_vec_env`` (in this process), the first one published to Foxglove.
+
+    Whole episodes of that env go out while publishing has cost at most :data:`WATCH_BUDGET` of
+    the wall time (:class:`~bubblerob_env.ros.live.foxglove_publisher.FoxglovePublisher`), under
+    ``Monitor`` and ``env_wrapper``, so that Foxglove sees the env's own observations.
+    """
+
+    def __init__(self, env_id: str, address: tuple[str, int]) -> None:
+        self.env_id = env_id
+        self.address = address
+        self.made = 0
+
+    def __call__(self, **kwargs: Any) -> Any:
+        import gymnasium as gym
+
+        env = gym.make(self.env_id, **kwargs)
+        self.made += 1
+        if self.made > 1:
+            return env
+        from bubblerob_env.ros.live.foxglove_publisher import FoxglovePublisher
+
+        return FoxglovePublisher(env, *self.address, budget=WATCH_BUDGET)
