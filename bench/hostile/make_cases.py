@@ -220,8 +220,8 @@ def _refuse(
     return {**case, **extra}
 
 
-def cli_cases() -> list[dict[str, Any]]:
-    """Kinds 0, 2, 5, 7: each subcommand's hostile options, refused before any work."""
+def record_cases() -> list[dict[str, Any]]:
+    """``record``'s hostile options: refused before any bag folder exists."""
     rec = [
         "record",
         "--policy",
@@ -234,10 +234,6 @@ def cli_cases() -> list[dict[str, Any]]:
         "--out",
         "out",
     ]
-    ev = ["evaluate", "--policy", "reactive", "--episodes", "1"]
-    demo = ["demo", "--policy", "reactive", "--episodes", "1", "--no-video", "--out", "d"]
-    tr = ["train", "--timesteps", "64", "--out", "run", "--no-progress"]
-    node = ["node", "--max-steps", "5", "--master-timeout", "2"]
     c: list[dict[str, Any]] = []
     for k, (extra, says) in enumerate(
         [
@@ -272,6 +268,12 @@ def cli_cases() -> list[dict[str, Any]]:
     ):
         c.append(_refuse(f"record-{k}", 0 if k < 16 else 5, rec + extra, says, absent=["out"]))
     c.append(_refuse("record-out-is-a-file", 4, [*rec[:-1], "{bag_mcap_file}"], "bag.mcap"))
+    return c
+
+
+def bag_command_cases() -> list[dict[str, Any]]:
+    """``replay``, ``info``, ``recover``, ``map``, ``localize``, ``detect``: hostile options."""
+    c: list[dict[str, Any]] = []
     for k, (argv, says) in enumerate(
         [
             (["replay", "{bag}", "--episodes", "-1"], "episodes"),
@@ -346,6 +348,16 @@ def cli_cases() -> list[dict[str, Any]]:
         ]
     ):
         c.append(_refuse(f"detect-{k}", 0, ["detect", bag], says))
+    return c
+
+
+def run_command_cases() -> list[dict[str, Any]]:
+    """``evaluate``, ``demo``, ``train``, ``node`` (before ROS starts): hostile options."""
+    ev = ["evaluate", "--policy", "reactive", "--episodes", "1"]
+    demo = ["demo", "--policy", "reactive", "--episodes", "1", "--no-video", "--out", "d"]
+    tr = ["train", "--timesteps", "64", "--out", "run", "--no-progress"]
+    node = ["node", "--max-steps", "5", "--master-timeout", "2"]
+    c: list[dict[str, Any]] = []
     for k, (extra, says) in enumerate(
         [
             (["--episodes", "0"], "--episodes"),
@@ -426,7 +438,7 @@ def cli_cases() -> list[dict[str, Any]]:
 
 
 def bag_cases() -> list[dict[str, Any]]:
-    """Kinds 1 and 4: bags read as users record them; figures over nothing; outputs."""
+    """Kinds 1 to 3: ``map`` over bags as users record them; IoUs over nothing; its options."""
     c: list[dict[str, Any]] = []
     for bag in (
         "bag",
@@ -493,6 +505,12 @@ def bag_cases() -> list[dict[str, Any]]:
             "stdout_has": ["ground truth: the re-simulated episode"],
         }
     )
+    return c
+
+
+def bag_reader_cases() -> list[dict[str, Any]]:
+    """Kinds 1 and 4: ``localize``, ``detect``, ``info``, ``replay``; standard output."""
+    c: list[dict[str, Any]] = []
     for bag in ("bag", "bag_vrep", "bag_ns", "bag_noise", "bag_ros1", "bag_pioneer"):
         c.append(
             {
@@ -619,7 +637,15 @@ def policy_cases() -> list[dict[str, Any]]:
 
 def main() -> None:
     """Write cases.json and say how many of each kind."""
-    cases = env_cases() + cli_cases() + bag_cases() + policy_cases()
+    cases = [
+        *env_cases(),
+        *record_cases(),
+        *bag_command_cases(),
+        *run_command_cases(),
+        *bag_cases(),
+        *bag_reader_cases(),
+        *policy_cases(),
+    ]
     ids = [c["id"] for c in cases]
     assert len(ids) == len(set(ids)), "case ids must be unique"
     (HERE / "cases.json").write_text(json.dumps(cases, indent=1) + "\n")
