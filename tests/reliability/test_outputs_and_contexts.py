@@ -129,3 +129,26 @@ def test_a_sample_of_the_hostile_campaign(tmp_path: Path) -> None:
     snippets = [c for c in cases if "python" in c][::25]
     results += campaign.run_snippets(snippets, {}, tmp_path)
     assert [r["verdict"] for r in results] == ["ok"] * len(results), results
+
+
+def test_a_write_that_fails_after_the_work_is_one_line(tmp_path: Path) -> None:
+    """A full disk (RLIMIT_FSIZE: Python ignores SIGXFSZ, so the write fails) at the end."""
+    import resource
+
+    def small_files() -> None:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (50, 50))
+
+    out = tmp_path / "e.json"
+    done = subprocess.run(
+        [sys.executable, "-m", "bubblerob_cli", "evaluate", "--policy", "reactive"]
+        + ["--episodes", "1", "--per-episode", str(out)],
+        preexec_fn=small_files,  # noqa: PLW1509
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=tmp_path,
+    )
+    assert done.returncode == 1, done.stderr
+    lines = [line for line in done.stderr.splitlines() if line.startswith("bubblerob ")]
+    assert lines == [f"bubblerob evaluate: cannot write --per-episode {out}: File too large"]
+    assert "Traceback" not in done.stderr
