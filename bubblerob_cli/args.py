@@ -7,7 +7,7 @@ from typing import Any
 
 from bubblerob_cli.errors import fail
 
-__all__ = ["HelpFormatter", "add_env_arguments", "env_kwargs_json", "make_env"]
+__all__ = ["HelpFormatter", "add_env_arguments", "env_kwargs_json", "make_env", "with_options"]
 
 
 class HelpFormatter(argparse.HelpFormatter):
@@ -64,6 +64,26 @@ def add_env_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="JSON",
         help="gym.make keyword arguments as a JSON object, e.g. '{\"arena_size\": 3.0}'",
     )
+
+
+def with_options(
+    command: str, env_kwargs: dict[str, Any], options: dict[str, tuple[str, Any]]
+) -> dict[str, Any]:
+    """``env_kwargs`` with each option's kwarg set: ``options`` maps a kwarg to (option, value).
+
+    An option that says otherwise than ``--env-kwargs`` (``--camera`` beside ``{"camera":
+    false}``, ``--max-steps 5`` beside ``{"max_episode_steps": 9}``) is one line, exit 2: neither
+    is silently dropped.
+    """
+    kwargs = dict(env_kwargs)
+    for key, (option, value) in options.items():
+        if key in kwargs and kwargs[key] != value:
+            fail(
+                command,
+                f"{option} contradicts --env-kwargs {key}={kwargs[key]!r}: give one of them",
+            )
+        kwargs[key] = value
+    return kwargs
 
 
 def make_env(

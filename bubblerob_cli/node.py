@@ -10,7 +10,7 @@ import sys
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
-from bubblerob_cli.args import add_env_arguments, make_env
+from bubblerob_cli.args import add_env_arguments, make_env, with_options
 from bubblerob_cli.errors import fail
 from bubblerob_cli.node_robots import add_robots_argument
 from bubblerob_env.extras import require_extra
@@ -374,14 +374,16 @@ def _follow_clock(args: argparse.Namespace, backend: LiveBackend, config: NodeCo
 
 def _env_kwargs(args: argparse.Namespace) -> dict[str, Any]:
     """``--env-kwargs``, then ``--camera``, ``--camera-size`` and ``--max-steps``."""
-    kwargs: dict[str, Any] = dict(args.env_kwargs)
+    options: dict[str, tuple[str, Any]] = {}
     if args.camera:
-        kwargs["camera"] = True
+        options["camera"] = ("--camera", True)
     if args.camera_size is not None:
-        kwargs["camera_width"], kwargs["camera_height"] = args.camera_size
+        width, height = args.camera_size
+        options["camera_width"] = (f"--camera-size {width}x{height}", width)
+        options["camera_height"] = (f"--camera-size {width}x{height}", height)
     if args.max_steps is not None:
-        kwargs["max_episode_steps"] = args.max_steps
-    return kwargs
+        options["max_episode_steps"] = (f"--max-steps {args.max_steps}", args.max_steps)
+    return with_options("node", args.env_kwargs, options)
 
 
 def _report(node: SimNode, lost: str | None) -> int:

@@ -15,7 +15,7 @@ import gymnasium as gym
 import numpy as np
 
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
-from bubblerob_cli.args import add_env_arguments, make_env
+from bubblerob_cli.args import add_env_arguments, make_env, with_options
 from bubblerob_cli.errors import report
 from bubblerob_env.mapping import check_resolution
 from bubblerob_env.ros.bags.sinks import COMPRESSIONS, FORMATS
@@ -177,12 +177,12 @@ def _policy_error(name: str, error: Exception) -> str:
 
 def record_env_kwargs(args: argparse.Namespace) -> dict[str, Any]:
     """``gym.make`` kwargs of ``record``: ``--env-kwargs``, then ``--camera``, ``--max-steps``."""
-    kwargs: dict[str, Any] = dict(args.env_kwargs)
+    options: dict[str, tuple[str, Any]] = {}
     if args.camera:
-        kwargs["camera"] = True
+        options["camera"] = ("--camera", True)
     if args.max_steps is not None:
-        kwargs["max_episode_steps"] = args.max_steps
-    return kwargs
+        options["max_episode_steps"] = (f"--max-steps {args.max_steps}", args.max_steps)
+    return with_options("record", args.env_kwargs, options)
 
 
 def _record(args: argparse.Namespace) -> int:

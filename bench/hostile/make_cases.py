@@ -268,6 +268,13 @@ def record_cases() -> list[dict[str, Any]]:
     ):
         c.append(_refuse(f"record-{k}", 0 if k < 16 else 5, rec + extra, says, absent=["out"]))
     c.append(_refuse("record-out-is-a-file", 4, [*rec[:-1], "{bag_mcap_file}"], "bag.mcap"))
+    for k, extra in enumerate(
+        (
+            ["--camera", "--env-kwargs", '{"camera": false}'],
+            ["--env-kwargs", '{"max_episode_steps": 9}'],
+        )
+    ):  # an option and --env-kwargs that say otherwise: neither silently dropped
+        c.append(_refuse(f"record-pair-{k}", 2, rec + extra, "contradicts", absent=["out"]))
     return c
 
 
@@ -431,6 +438,8 @@ def run_command_cases() -> list[dict[str, Any]]:
             (["--env-kwargs", '{"laser_num_rays": 0}', "--localize", "track"], "laser"),
             (["--env-kwargs", '{"camera": false, "camera_width": 32}'], "camera"),
             (["--policy", "nosuch"], "nosuch"),
+            (["--camera", "--env-kwargs", '{"camera": false}'], "contradicts"),
+            (["--camera-size", "32x24", "--env-kwargs", '{"camera_width": 40}'], "contradicts"),
         ]
     ):
         c.append(_refuse(f"node-{k}", 5, node + extra, says, timeout=60))
