@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import signal
+import sys
 from typing import Any
 
 from bubblerob_cli.errors import fail
@@ -31,6 +32,8 @@ def run_robots(args: argparse.Namespace) -> int:
     if refused:
         fail("node", refused)
     require_extra("multi", "bubblerob node --robots")
+    if args.foxglove:
+        require_extra("foxglove", "bubblerob node --foxglove")
     from bubblerob_env.ros.live.multi_node import MultiSimNode
     from bubblerob_env.ros.live.node import NodeConfig
     from bubblerob_env.ros.messages.topics import topics_preset
@@ -55,9 +58,10 @@ def run_robots(args: argparse.Namespace) -> int:
     except (TypeError, ValueError) as error:
         env.close()
         fail("node", str(error))
+    where = _serve_foxglove(backend, node) if args.foxglove else f"ROS {args.ros}"
     previous = signal.signal(signal.SIGTERM, lambda *_: node.request_stop())
     mode = "sync mode" if args.sync else f"rate factor {args.rate_factor:g}"
-    print(f"bubblerob node: ROS {args.ros}, {args.robots} robots, {mode}; ready", flush=True)
+    print(f"bubblerob node: {where}, {args.robots} robots, {mode}; ready", flush=True)
     try:
         node.run(max_steps=args.steps, duration=args.duration)
     except KeyboardInterrupt:
@@ -79,9 +83,8 @@ def _refused(args: argparse.Namespace) -> str | None:
         return f"--robots must be at least 1, got {args.robots}"
     if args.namespace:
         return "--namespace is for one robot: with --robots each robot gets its own (robot_i)"
-    for option, given in (("--localize", args.localize), ("--foxglove", args.foxglove)):
-        if given:
-            return f"{option} runs one robot: leave it out with --robots {args.robots}"
+    if args.localize:
+        return f"--localize runs one robot: leave it out with --robots {args.robots}"
     if args.topics not in ("default", "tutorial"):
         return f"--topics {args.topics} is one robot's; with --robots use default or tutorial"
     return None
@@ -116,15 +119,35 @@ def _world(args: argparse.Namespace) -> tuple[Any, dict[str, Any]]:
 
 
 def _backend(args: argparse.Namespace, env: Any) -> Any:
-    """The ROS node of ``--ros``; one line and exit 2 if it cannot start."""
+    """``--ros``'s ROS node or ``--foxglove``'s server; one line and exit 2 if it cannot start."""
     from bubblerob_env.ros.live.backend import BackendError
     from bubblerob_env.ros.live.connect import load_backend
 
     try:
+        if args.foxglove:
+            from bubblerob_cli.foxglove_view import quiet_sdk_log
+            from bubblerob_env.ros.live.foxglove import FoxgloveBackend
+
+            quiet_sdk_log("node")
+            return FoxgloveBackend(args.host, args.port, logger=_log_line)
         return load_backend(args.ros, master_timeout=args.master_timeout)
     except BackendError as error:
         env.close()
         fail("node", str(error))
+
+
+def _log_line(level: str, text: str) -> None:
+    """The Foxglove server's log: one line on stderr (ROS nodes log to rosout)."""
+    print(f"bubblerob node: {'warning: ' if level == 'warn' else ''}{text}", file=sys.stderr)
+
+
+def _serve_foxglove(backend: Any, node: Any) -> str:
+    """Add the world's services and the robots' bodies to the Foxglove server; its address."""
+    from bubblerob_env.ros.live.foxglove import SUBPROTOCOL
+    from bubblerob_env.ros.live.foxglove_services import serve_world
+
+    serve_world(backend, node)
+    return f"Foxglove at {backend.url} (WebSocket subprotocol {SUBPROTOCOL})"
 
 
 def _drivers(args: argparse.Namespace, env: Any, kwargs: dict[str, Any]) -> Any:

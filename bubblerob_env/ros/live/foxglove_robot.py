@@ -18,7 +18,7 @@ from bubblerob_env.ros.live.backend import LiveBackend
 from bubblerob_env.ros.live.foxglove_json import json_to_cdr
 from bubblerob_env.ros.messages.topics import Topics, namespace_prefix
 
-__all__ = ["MARKER_TYPE", "publish_robot_model", "robot_model_topic"]
+__all__ = ["MARKER_TYPE", "publish_marker", "publish_robot_model", "robot_model_topic"]
 
 MARKER_TYPE = "visualization_msgs/msg/Marker"
 _CYLINDER, _HEIGHT = 3, 0.12
@@ -32,8 +32,15 @@ def robot_model_topic(topics: Topics) -> str:
 def publish_robot_model(backend: LiveBackend, env: gym.Env[Any, Any], topics: Topics) -> str:
     """Publish ``env``'s robot as a cylinder on base_link (latched); returns the topic."""
     radius = float(env.unwrapped.robot.radius)  # type: ignore[attr-defined]
+    topic = robot_model_topic(topics)
+    publish_marker(backend, radius, topics.frame_prefix, topic)
+    return topic
+
+
+def publish_marker(backend: LiveBackend, radius: float, frame_prefix: str, topic: str) -> None:
+    """Publish a robot of ``radius`` as a cylinder on ``<frame_prefix>base_link``, latched."""
     marker = {
-        "header": {"frame_id": topics.frame_prefix + "base_link"},
+        "header": {"frame_id": frame_prefix + "base_link"},
         "ns": "bubblerob",
         "type": _CYLINDER,
         "pose": {"position": {"z": _HEIGHT / 2}, "orientation": {"w": 1.0}},
@@ -41,7 +48,5 @@ def publish_robot_model(backend: LiveBackend, env: gym.Env[Any, Any], topics: To
         "color": {"r": 0.95, "g": 0.55, "b": 0.1, "a": 0.8},
         "frame_locked": True,
     }
-    topic = robot_model_topic(topics)
     publish = backend.advertise(topic, MARKER_TYPE, latched=True)
     publish(json_to_cdr(backend.distro, MARKER_TYPE, json.dumps(marker).encode()))
-    return topic

@@ -13,20 +13,29 @@ the simulation loop applies them as it applies the topics' (between two steps):
   or a ``triggerNextStep``).
 
 The answer says what was queued; the topics (``simulationState``, ``simulationStepDone``) say
-when it happened.
+when it happened. With several robots (:func:`serve_world`) the same services act on the world.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import asdict
 from typing import Any
 
 from bubblerob_env.ros.live.foxglove import FoxgloveBackend
-from bubblerob_env.ros.live.foxglove_robot import publish_robot_model
-from bubblerob_env.ros.live.node import PAUSED, SimNode
+from bubblerob_env.ros.live.foxglove_robot import publish_marker, publish_robot_model
+from bubblerob_env.ros.live.multi_node import MultiSimNode
+from bubblerob_env.ros.live.node import PAUSED, NodeConfig, SimNode
+from bubblerob_env.ros.messages.robots import robot_frame_prefix, robot_name
 from bubblerob_env.ros.messages.topics import namespace_prefix
 
-__all__ = ["SERVICE_NAMES", "add_simulation_services", "node_parameters", "serve_simulation"]
+__all__ = [
+    "SERVICE_NAMES",
+    "add_simulation_services",
+    "node_parameters",
+    "serve_simulation",
+    "serve_world",
+]
 
 SERVICE_NAMES = ("reset_simulation", "pause_simulation", "resume_simulation", "step_simulation")
 """The services, under the node's namespace."""
@@ -34,15 +43,31 @@ SERVICE_NAMES = ("reset_simulation", "pause_simulation", "resume_simulation", "s
 
 def add_simulation_services(backend: FoxgloveBackend, node: SimNode, namespace: str = "") -> None:
     """Serve :data:`SERVICE_NAMES` (under ``namespace``) for ``node``'s simulation loop."""
-    push = node.state.push
+    _add_services(
+        backend,
+        node.state.push,
+        lambda: node.sim_state == PAUSED,
+        lambda: node.publisher.episode + 1,
+        namespace,
+    )
+
+
+def _add_services(
+    backend: FoxgloveBackend,
+    push: Callable[[str, bool], None],
+    paused: Callable[[], bool],
+    next_episode: Callable[[], int],
+    namespace: str,
+) -> None:
+    """The services, queueing control events with ``push`` (a SimNode's or a world's)."""
 
     def reset() -> tuple[bool, str]:
-        paused = node.sim_state == PAUSED
+        was_paused = paused()
         push("stop", True)
         push("start", True)
-        if paused:
+        if was_paused:
             push("pause", True)
-        return True, f"episode {node.publisher.episode + 1} queued" + (", paused" if paused else "")
+        return True, f"episode {next_episode()} queued" + (", paused" if was_paused else "")
 
     def pause() -> tuple[bool, str]:
         push("pause", True)
@@ -77,13 +102,35 @@ def serve_simulation(backend: FoxgloveBackend, node: SimNode, namespace: str = "
     backend.set_parameters(node_parameters(node, namespace))
 
 
+def serve_world(backend: FoxgloveBackend, node: MultiSimNode) -> None:
+    """:func:`serve_simulation` for ``--robots N``: the services act on the world (every robot).
+
+    Each robot's body goes on ``/robot_i/bubblerob/robot_model``, on frame ``robot_i/base_link``.
+    """
+    _add_services(
+        backend,
+        node.events.push,
+        lambda: node.sim_state == PAUSED,
+        lambda: node.world.episodes + 1,
+        "",
+    )
+    radius = float(node.env.config.robot.radius)
+    for k in range(node.env.num_robots):
+        topic = f"/{robot_name(k)}/bubblerob/robot_model"
+        publish_marker(backend, radius, robot_frame_prefix(k), topic)
+    values = _settings(node.config, robots=node.env.num_robots)
+    backend.set_parameters({f"/bubblerob.{key}": value for key, value in values.items()})
+
+
 def node_parameters(node: SimNode, namespace: str = "") -> dict[str, bool | int | float | str]:
     """The node's settings as read-only parameters, ``<namespace>/bubblerob.<setting>``."""
     spec = getattr(node.publisher.env, "spec", None)
-    values: dict[str, Any] = {"env": getattr(spec, "id", "") or "", **asdict(node.config)}
     prefix = namespace_prefix(namespace)
-    return {
-        f"{prefix}/bubblerob.{key}": value
-        for key, value in values.items()
-        if isinstance(value, (bool, int, float, str))
-    }
+    values = _settings(node.config, env=getattr(spec, "id", "") or "")
+    return {f"{prefix}/bubblerob.{key}": value for key, value in values.items()}
+
+
+def _settings(config: NodeConfig, **extra: Any) -> dict[str, bool | int | float | str]:
+    """``extra`` and ``config``'s settings that a parameter can hold (no ``None``)."""
+    values: dict[str, Any] = {**extra, **asdict(config)}
+    return {k: v for k, v in values.items() if isinstance(v, (bool, int, float, str))}
