@@ -102,6 +102,8 @@ def test_standard_output_full_or_closed_is_one_line(short_bag, stdout: str) -> N
         (["evaluate", "--env-kwargs", '{"render_mode": "human"}'], "no display"),
         (["node", "--localize", "track", "--map-resolution", "1"], "too coarse"),
         (["node", "--env-kwargs", '{"obs_mode": "flat"}'], "obs_mode"),
+        (["record", "--camera", "--env-kwargs", '{"camera": false}'], "contradicts"),
+        (["node", "--env-kwargs", '{"max_episode_steps": 9}'], "contradicts"),
     ],
 )
 def test_contexts_that_cannot_work_are_refused_at_start(tmp_path, monkeypatch, argv, says):
