@@ -14,29 +14,22 @@ backend="warp")`` does. Used by ``python -m train --vec-env warp``; needs ``mujo
 
 from __future__ import annotations
 
-import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 from gymnasium.vector import AutoresetMode
-from stable_baselines3.common.monitor import Monitor
-from stable_baselines3.common.vec_env.base_vec_env import (
-    VecEnv,
-    VecEnvIndices,
-    VecEnvObs,
-    VecEnvStepReturn,
-)
+from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvObs
 
 from bubblerob_env.mjwarp import WarpVectorEnv
+from train.sb3_vec import BatchStep, FinalStep, SameStepSB3VecEnv
 
 __all__ = ["WarpSB3VecEnv"]
 
 _BATCH_ONLY = ("final_obs", "final_info")
 
 
-class WarpSB3VecEnv(VecEnv):
+class WarpSB3VecEnv(SameStepSB3VecEnv):
     """``num_envs`` BubbleRobs for SB3, stepped as MuJoCo Warp worlds on ``device``.
 
     Args:
@@ -69,57 +62,25 @@ class WarpSB3VecEnv(VecEnv):
         )
         self.render_mode = None
         self.metadata = self.venv.metadata
-        self._actions: np.ndarray | None = None
-        self._returns = np.zeros(num_envs)
-        self._lengths = np.zeros(num_envs, dtype=np.int64)
-        self._start = time.time()
 
-    def reset(self) -> VecEnvObs:
-        """Reset every robot with the seeds given to :meth:`seed` (then unseeded)."""
-        seeds = list(self._seeds)
+    def reset_batch(
+        self, seeds: list[int | None], options: list[dict[str, Any]]
+    ) -> tuple[VecEnvObs, list[dict[str, Any]]]:
+        """Reset every robot with ``seeds`` (unseeded where all are None); no options."""
         obs: VecEnvObs
         obs, info = self.venv.reset(seed=None if all(s is None for s in seeds) else seeds)
-        self._returns[:] = 0.0
-        self._lengths[:] = 0
-        self.reset_infos = [_robot(info, i) for i in range(self.num_envs)]
-        self._reset_seeds()
-        self._reset_options()
-        return obs
+        return obs, [_robot(info, i) for i in range(self.num_envs)]
 
-    def step_async(self, actions: np.ndarray) -> None:
-        """Store the actions for :meth:`step_wait`."""
-        self._actions = actions
-
-    def step_wait(self) -> VecEnvStepReturn:
-        """Step every robot; ended episodes restart at once, as SB3 expects."""
-        assert self._actions is not None, "step_async first"
-        obs, rewards, terminated, truncated, info = self.venv.step(
-            np.asarray(self._actions, dtype=np.float32)
-        )
-        self._returns += rewards
-        self._lengths += 1
+    def step_batch(self, actions: np.ndarray) -> BatchStep:
+        """Step every world; an ended world already holds its next episode."""
+        obs, rewards, terminated, truncated, info = self.venv.step(actions)
         done = terminated | truncated
-        infos = []
-        for i in range(self.num_envs):
-            if not done[i]:
-                infos.append({**_robot(info, i), "TimeLimit.truncated": False})  # as DummyVecEnv
-                continue
-            infos.append(
-                {
-                    **_robot(info["final_info"], i),
-                    # As SB3's Monitor writes it.
-                    "episode": {
-                        "r": round(float(self._returns[i]), 6),
-                        "l": int(self._lengths[i]),
-                        "t": round(time.time() - self._start, 6),
-                    },
-                    "terminal_observation": info["final_obs"][i],
-                    "TimeLimit.truncated": bool(truncated[i] and not terminated[i]),
-                }
-            )
-            self._returns[i], self._lengths[i] = 0.0, 0
-            self.reset_infos[i] = {}
-        return obs, rewards.astype(np.float32), done, infos
+        finals: list[FinalStep | None] = [
+            (info["final_obs"][i], _robot(info["final_info"], i)) if done[i] else None
+            for i in range(self.num_envs)
+        ]
+        infos = [{} if done[i] else _robot(info, i) for i in range(self.num_envs)]
+        return obs, rewards, terminated, truncated, infos, finals
 
     def close(self) -> None:
         """Free the device arrays."""
@@ -131,7 +92,7 @@ class WarpSB3VecEnv(VecEnv):
 
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
         """The attribute of the CPU env that describes every world (one per index)."""
-        return [self.venv.get_attr(attr_name)[0] for _ in _indices(indices, self.num_envs)]
+        return [self.venv.get_attr(attr_name)[0] for _ in self._get_indices(indices)]
 
     def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
         """Not available: the worlds share one model and its settings."""
@@ -145,19 +106,7 @@ class WarpSB3VecEnv(VecEnv):
     ) -> list[Any]:
         """The CPU env's method, called once for every index (the worlds have no env objects)."""
         method = self.venv.get_attr(method_name)[0]
-        return [method(*method_args, **kwargs) for _ in _indices(indices, self.num_envs)]
-
-    def env_is_wrapped(
-        self, wrapper_class: type[gym.Wrapper[Any, Any, Any, Any]], indices: VecEnvIndices = None
-    ) -> list[bool]:
-        """Only as by ``Monitor``: the adapter reports ``info["episode"]`` as Monitor does."""
-        return [wrapper_class is Monitor for _ in _indices(indices, self.num_envs)]
-
-
-def _indices(indices: VecEnvIndices, n: int) -> Iterable[int]:
-    if indices is None:
-        return range(n)
-    return [indices] if isinstance(indices, int) else indices
+        return [method(*method_args, **kwargs) for _ in self._get_indices(indices)]
 
 
 def _robot(info: dict[str, Any], i: int) -> dict[str, Any]:

@@ -17,21 +17,14 @@ slot is a sequence of independent robot-episodes, as SB3 expects of a ``VecEnv``
 
 from __future__ import annotations
 
-import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
-from stable_baselines3.common.monitor import Monitor
-from stable_baselines3.common.vec_env.base_vec_env import (
-    VecEnv,
-    VecEnvIndices,
-    VecEnvObs,
-    VecEnvStepReturn,
-)
+from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvObs
 
 from bubblerob_env.multi.vector import WorldsVectorEnv
+from train.sb3_vec import BatchStep, FinalStep, SameStepSB3VecEnv
 
 __all__ = ["WorldsSB3VecEnv", "split_infos"]
 
@@ -51,7 +44,7 @@ def split_infos(info: dict[str, Any], count: int) -> list[dict[str, Any]]:
     return infos
 
 
-class WorldsSB3VecEnv(VecEnv):
+class WorldsSB3VecEnv(SameStepSB3VecEnv):
     """``num_worlds`` worlds of ``num_robots`` robots as ``num_worlds * num_robots`` SB3 slots.
 
     Args:
@@ -68,53 +61,26 @@ class WorldsSB3VecEnv(VecEnv):
             self.venv.num_envs, self.venv.single_observation_space, self.venv.single_action_space
         )
         self.num_worlds, self.num_robots = num_worlds, num_robots
-        self._actions: np.ndarray | None = None
-        self._returns = np.zeros(self.num_envs)
-        self._lengths = np.zeros(self.num_envs, dtype=np.int64)
-        self._start = time.time()
 
-    def reset(self) -> VecEnvObs:
+    def reset_batch(
+        self, seeds: list[int | None], options: list[dict[str, Any]]
+    ) -> tuple[VecEnvObs, list[dict[str, Any]]]:
         """Reset every world; world ``w`` seeded ``s + w`` after :meth:`seed` ``(s)``."""
-        first = self._seeds[0] if self._seeds else None
-        obs, info = self.venv.reset(seed=first)
-        self._returns[:] = 0.0
-        self._lengths[:] = 0
-        self.reset_infos = split_infos(info, self.num_envs)
-        self._reset_seeds()
-        self._reset_options()
-        return obs
+        obs, info = self.venv.reset(seed=seeds[0] if seeds else None)
+        return obs, split_infos(info, self.num_envs)
 
-    def step_async(self, actions: np.ndarray) -> None:
-        """Store the actions for :meth:`step_wait`."""
-        self._actions = actions
-
-    def step_wait(self) -> VecEnvStepReturn:
-        """Step every world; ended slots restart in the same step, as SB3 expects."""
-        assert self._actions is not None, "step_async first"
-        actions = np.asarray(self._actions, dtype=np.float32).reshape(self.num_envs, 2)
-        obs, rewards, terminated, truncated, info = self.venv.step(actions)
-        self._returns += rewards
-        self._lengths += 1
-        dones = terminated | truncated
-        infos = split_infos(info, self.num_envs)
-        ended = np.flatnonzero(dones).tolist()
-        finals = split_infos(info["final_info"], self.num_envs) if ended else []
-        for i in range(self.num_envs):
-            infos[i]["TimeLimit.truncated"] = False  # as SB3's DummyVecEnv
-        for i in ended:
-            infos[i] = {
-                **finals[i],
-                "episode": {  # as SB3's Monitor writes it
-                    "r": round(float(self._returns[i]), 6),
-                    "l": int(self._lengths[i]),
-                    "t": round(time.time() - self._start, 6),
-                },
-                "terminal_observation": info["final_obs"][i],
-                "TimeLimit.truncated": bool(truncated[i] and not terminated[i]),
-            }
-            self._returns[i], self._lengths[i] = 0.0, 0
-            self.reset_infos[i] = {}
-        return obs, rewards.astype(np.float32), dones, infos
+    def step_batch(self, actions: np.ndarray) -> BatchStep:
+        """Step every world; an ended slot's robot already replaced by a new one."""
+        obs, rewards, terminated, truncated, info = self.venv.step(
+            actions.reshape(self.num_envs, 2)
+        )
+        ended = np.flatnonzero(terminated | truncated).tolist()
+        finals: list[FinalStep | None] = [None] * self.num_envs
+        if ended:
+            final_infos = split_infos(info["final_info"], self.num_envs)
+            for i in ended:
+                finals[i] = (info["final_obs"][i], final_infos[i])
+        return obs, rewards, terminated, truncated, split_infos(info, self.num_envs), finals
 
     def close(self) -> None:
         """Stop the worlds' threads."""
@@ -124,16 +90,9 @@ class WorldsSB3VecEnv(VecEnv):
         """No rendering: the worlds have no camera (``parallel_env`` renders)."""
         return [None] * self.num_envs
 
-    def _slots(self, indices: VecEnvIndices) -> Iterable[int]:
-        if indices is None:
-            return range(self.num_envs)
-        if isinstance(indices, int):
-            return [indices]
-        return indices
-
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
         """The worlds' attribute (one object steps every slot), once per slot asked."""
-        return [getattr(self.venv, attr_name) for _ in self._slots(indices)]
+        return [getattr(self.venv, attr_name) for _ in self._get_indices(indices)]
 
     def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
         """Set an attribute of the worlds (shared by every slot)."""
@@ -144,10 +103,4 @@ class WorldsSB3VecEnv(VecEnv):
     ) -> list[Any]:
         """Call a method of the worlds once; its result for each slot asked."""
         result = getattr(self.venv, method_name)(*method_args, **kwargs)
-        return [result for _ in self._slots(indices)]
-
-    def env_is_wrapped(
-        self, wrapper_class: type[gym.Wrapper[Any, Any, Any, Any]], indices: VecEnvIndices = None
-    ) -> list[bool]:
-        """Only as by ``Monitor``: ``info["episode"]`` is reported as Monitor does."""
-        return [wrapper_class is Monitor for _ in self._slots(indices)]
+        return [result for _ in self._get_indices(indices)]
