@@ -54,9 +54,40 @@ def training_envs(
     updated) and VecFrameStack (``frame_stack: N``), as rl_zoo3 stacks them. With ``foxglove``
     (host, port) the first training env is published to Foxglove (:class:`WatchFirst`).
     """
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
+
+    env_kwargs = config.get("env_kwargs") or {}
+    spec = config.get("env_wrapper")
+    wrap = wrapper_class(spec)
+    count = int(config["n_envs"])
+    if foxglove is not None and vec_env != "dummy":
+        raise ValueError("--foxglove watches a training env stepped here: use --vec-env dummy")
+    if vec_env == "batched":
+        envs = batched_envs(env_id, count, seed, env_kwargs, spec)
+        # The same wrapper chain as training's: VecNormalize's statistics are synced by walking
+        # both chains in step.
+        eval_env = batched_envs(env_id, eval_episodes, VALIDATION.start, env_kwargs, spec)
+    elif vec_env == "worlds":  # the shared policy is evaluated driving one robot
+        envs = worlds_envs(env_id, count, robots, seed, env_kwargs, spec)
+        eval_env = single_robot_eval_envs(env_id, eval_episodes, env_kwargs, spec)
+    elif vec_env == "warp":  # evaluated on the CPU env, where the policy will run
+        envs = warp_envs(env_id, count, seed, env_kwargs, spec)
+        eval_env = single_robot_eval_envs(env_id, eval_episodes, env_kwargs, spec)
+    else:
+        made = env_id if foxglove is None else WatchFirst(env_id, foxglove)
+        vec_cls = SubprocVecEnv if count > 1 and vec_env == "subproc" else DummyVecEnv
+        shared = {"env_kwargs": env_kwargs, "wrapper_class": wrap}
+        envs = make_vec_env(made, n_envs=count, seed=seed, vec_env_cls=vec_cls, **shared)
+        # One env per validation episode (train/validation.py), stepped in this process.
+        eval_env = make_vec_env(env_id, n_envs=eval_episodes, seed=VALIDATION.start, **shared)
+    return _normalized_and_stacked(config, envs, eval_env)
+
+
+def _normalized_and_stacked(config: dict[str, Any], envs: Any, eval_env: Any) -> tuple[Any, Any]:
+    """VecNormalize (``normalize: true``) and VecFrameStack (``frame_stack: N``) over both."""
     from stable_baselines3.common.vec_env import VecFrameStack, VecNormalize
 
-    envs, eval_env = _unwrapped_envs(env_id, config, seed, eval_episodes, vec_env, robots, foxglove)
     if config.get("normalize", False):
         # rl-zoo's "normalize: true": running mean/std of observations (and returns for training).
         keys = non_image_keys(envs.observation_space)
@@ -66,59 +97,6 @@ def training_envs(
         # rl-zoo's "frame_stack: N", on top of the normalisation as rl_zoo3 stacks.
         envs = VecFrameStack(envs, int(config["frame_stack"]))
         eval_env = VecFrameStack(eval_env, int(config["frame_stack"]))
-    return envs, eval_env
-
-
-def _unwrapped_envs(
-    env_id: str,
-    config: dict[str, Any],
-    seed: int,
-    eval_episodes: int,
-    vec_env: str,
-    robots: int = 8,
-    foxglove: tuple[str, int] | None = None,
-) -> tuple[Any, Any]:
-    """The training and evaluation envs with ``env_wrapper``, before normalisation."""
-    from stable_baselines3.common.env_util import make_vec_env
-    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
-
-    env_kwargs = config.get("env_kwargs") or {}
-    wrap = wrapper_class(config.get("env_wrapper"))
-    count = int(config["n_envs"])
-    vec_cls = SubprocVecEnv if count > 1 and vec_env == "subproc" else DummyVecEnv
-    if foxglove is not None and vec_env != "dummy":
-        raise ValueError("--foxglove watches a training env stepped here: use --vec-env dummy")
-    if vec_env == "batched":
-        spec = config.get("env_wrapper")
-        envs = batched_envs(env_id, count, seed, env_kwargs, spec)
-        # The same wrapper chain as training's: VecNormalize's statistics are synced by walking
-        # both chains in step.
-        eval_env = batched_envs(env_id, eval_episodes, VALIDATION.start, env_kwargs, spec)
-        return envs, eval_env
-    if vec_env == "worlds":  # the shared policy is evaluated driving one robot
-        spec = config.get("env_wrapper")
-        envs = worlds_envs(env_id, count, robots, seed, env_kwargs, spec)
-        return envs, single_robot_eval_envs(env_id, eval_episodes, env_kwargs, spec)
-    if vec_env == "warp":  # evaluated on the CPU env, where the policy will run
-        spec = config.get("env_wrapper")
-        envs = warp_envs(env_id, count, seed, env_kwargs, spec)
-        return envs, single_robot_eval_envs(env_id, eval_episodes, env_kwargs, spec)
-    envs = make_vec_env(
-        env_id if foxglove is None else WatchFirst(env_id, foxglove),
-        n_envs=count,
-        seed=seed,
-        env_kwargs=env_kwargs,
-        vec_env_cls=vec_cls,
-        wrapper_class=wrap,
-    )
-    # One env per validation episode (train/validation.py), stepped in this process.
-    eval_env = make_vec_env(
-        env_id,
-        n_envs=eval_episodes,
-        seed=VALIDATION.start,
-        env_kwargs=env_kwargs,
-        wrapper_class=wrap,
-    )
     return envs, eval_env
 
 
