@@ -61,7 +61,7 @@ test: test-setup
 	python -m pytest $(PYTEST_ARGS)
 
 demo-setup: debs-demo venv venv-demo kernel
-test-setup: demo-setup debs-test torch venv-all warp-kernels venv-ros2 tf2-msgs node-client \
+test-setup: demo-setup debs-test torch venv-all warp-kernels node-client venv-ros2 tf2-msgs \
 	warp-kernels-ready
 
 # The client libraries' tests skip in make test (not installed there): here they run, in their

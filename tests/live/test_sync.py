@@ -18,7 +18,10 @@ from bubblerob_env.ros import RosBagRecorder
 
 pytestmark = requires_ros
 
-SEED = 0  # default arena: rosBubbleRob2 drives 600 steps (30 s) without touching anything
+# The first seed from 0 whose default arena rosBubbleRob2 drives for 600 steps (30 s) without
+# touching anything, found by running its loop on the env offline (seed 0 was, before resets
+# started at rest, issue #41; since then it touches twice, as the loop is only reactive).
+SEED = 6
 STEPS = 600
 DT_NS = 50_000_000
 NODE_TOPICS = [
