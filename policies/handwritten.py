@@ -10,16 +10,19 @@ from numpy.typing import NDArray
 from bubblerob_env.sensors import LaserSpec
 from policies.base import ActionMapper, Observation, batch_size, take
 
-__all__ = ["LaserPolicy", "RandomPolicy", "ReactivePolicy"]
+__all__ = ["LaserPolicy", "OneByOnePolicy", "RandomPolicy", "ReactivePolicy"]
 
 
-class _Policy:
-    """Shared ``predict``: runs ``_act`` per observation, carrying per-env state."""
+class OneByOnePolicy:
+    """Shared ``predict``: runs ``_act`` per observation, carrying one number of state per env.
 
-    name = "policy"
+    The state starts (and starts over, where ``episode_start`` is true) at ``FRESH_STATE``.
+    """
 
-    def __init__(self, mapper: ActionMapper) -> None:
-        self.mapper = mapper
+    FRESH_STATE = 0.0
+    """A new episode's state (the navigators use NaN: no side chosen yet)."""
+
+    def __init__(self) -> None:
         self._state: NDArray[np.float64] | None = None
 
     def predict(
@@ -38,10 +41,10 @@ class _Policy:
         count = 1 if n is None else n
         memory = state if state is not None else self._state
         if memory is None or memory.shape[0] != count:
-            memory = np.zeros(count)
+            memory = np.full(count, self.FRESH_STATE)
         memory = memory.copy()
         if episode_start is not None:
-            memory[np.asarray(episode_start, dtype=bool).reshape(count)] = 0.0
+            memory[np.asarray(episode_start, dtype=bool).reshape(count)] = self.FRESH_STATE
         actions = np.empty((count, 2), dtype=np.float32)
         for i in range(count):
             single = take(observation, None if n is None else i)
@@ -55,6 +58,16 @@ class _Policy:
 
     def _act(self, obs: Observation, memory: float) -> tuple[NDArray[np.float32], float]:
         raise NotImplementedError
+
+
+class _Policy(OneByOnePolicy):
+    """A controller that acts through an :class:`ActionMapper` (wheels or twist)."""
+
+    name = "policy"
+
+    def __init__(self, mapper: ActionMapper) -> None:
+        super().__init__()
+        self.mapper = mapper
 
 
 class ReactivePolicy(_Policy):

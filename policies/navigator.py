@@ -19,8 +19,8 @@ from numpy.typing import NDArray
 
 from bubblerob_env.tasks.goals import clearance_grid, plan_path
 from bubblerob_env.tasks.nav import BubbleRobNavEnv
-from policies.base import ActionMapper, Observation, batch_size, take
-from policies.handwritten import LaserPolicy
+from policies.base import ActionMapper, Observation
+from policies.handwritten import LaserPolicy, OneByOnePolicy
 from policies.observations import PolicyEnvMismatchError, check_observations
 
 __all__ = ["NAVIGATION_POLICIES", "NavigatorPolicy", "PursuitPolicy", "navigation_policy"]
@@ -67,49 +67,7 @@ def _scaled_gap_law(radius: float, mapper: ActionMapper, max_heading: float) -> 
     }
 
 
-class _OneByOne:
-    """``predict`` on one observation or a batch, one at a time, with a number of memory each.
-
-    The memory (NaN: none yet) is kept between calls when ``state`` is None, and forgotten where
-    ``episode_start`` is true or after :meth:`reset`.
-    """
-
-    def __init__(self) -> None:
-        self._memory: NDArray[np.float64] | None = None
-
-    def predict(
-        self,
-        observation: Observation,
-        state: NDArray[np.float64] | None = None,
-        episode_start: NDArray[np.bool_] | None = None,
-        deterministic: bool = True,
-    ) -> tuple[NDArray[np.float32], NDArray[np.float64]]:
-        """SB3's call: the action for one observation, or actions ``(n, 2)`` for a batch."""
-        n = batch_size(observation)
-        count = 1 if n is None else n
-        memory = state if state is not None else self._memory
-        if memory is None or memory.shape[0] != count:
-            memory = np.full(count, np.nan)
-        memory = memory.copy()
-        if episode_start is not None:
-            memory[np.asarray(episode_start, dtype=bool).reshape(count)] = np.nan
-        actions = np.empty((count, 2), dtype=np.float32)
-        for i in range(count):
-            actions[i], memory[i] = self._act(
-                take(observation, None if n is None else i), memory[i]
-            )
-        self._memory = memory
-        return (actions[0] if n is None else actions), memory
-
-    def reset(self) -> None:
-        """Forget the memory."""
-        self._memory = None
-
-    def _act(self, obs: Observation, memory: float) -> tuple[NDArray[np.float32], float]:
-        raise NotImplementedError
-
-
-class NavigatorPolicy(_OneByOne):
+class NavigatorPolicy(OneByOnePolicy):
     """Goal seeking with the gap follower's avoidance, from the observation alone.
 
     Each candidate heading scores its free corridor length (the gap follower's, capped at the
@@ -177,7 +135,7 @@ class NavigatorPolicy(_OneByOne):
         return self.mapper.from_twist(speed, angular), float(off_goal[best])
 
 
-class PursuitPolicy(_OneByOne):
+class PursuitPolicy(OneByOnePolicy):
     """Pure pursuit on the ground-truth shortest path: an upper reference, not a baseline.
 
     At each new episode of its env it plans the shortest path from the robot to the goal on the
