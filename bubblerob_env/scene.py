@@ -197,26 +197,7 @@ class Scene:
         # The step's sensordata addresses are the kernel's settings (core/batch.py).
 
     def _resting_pose(self) -> tuple[float, NDArray[np.float64]]:
-        """The free joint's height and tilt (a quaternion, no yaw) of the robot at rest.
-
-        The compiled pose puts every wheel and the caster exactly on the floor (distance 0). A
-        contact at distance 0 is active or not by the sign of rounding noise (float64 here,
-        float32 in MuJoCo Warp), so resets from it fell freely for one substep on some seeds and
-        not on others (issue #41). Resets start from where the robot rests instead (sunk into
-        the soft contacts, every contact clearly active): found by letting it settle with the
-        motors holding, on an empty floor (the obstacle slots are compiled below it).
-        """
-        model, data = self.model, mujoco.MjData(self.model)
-        for _ in range(math.ceil(_SETTLE_SECONDS / model.opt.timestep)):
-            mujoco.mj_step(model, data)
-        adr = self.root_qpos
-        w, x, y, z = data.qpos[adr + 3 : adr + 7]
-        yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-        tilt = np.empty(4)
-        unyaw = np.array([math.cos(yaw / 2), 0.0, 0.0, -math.sin(yaw / 2)])
-        mujoco.mju_mulQuat(tilt, unyaw, data.qpos[adr + 3 : adr + 7])
-        mujoco.mju_normalize4(tilt)
-        return float(data.qpos[adr + 2]), tilt
+        return resting_pose(self.model, self.root_qpos)
 
     def _bind_views(self) -> None:
         # A view into self.data: rebuilt after unpickling and for a clone's new data.
@@ -351,3 +332,29 @@ class SceneField(Generic[T]):
         if obj is None:
             return self
         return cast(T, self.get(obj.scene))
+
+
+def resting_pose(
+    model: mujoco.MjModel, root_qpos: int, data: mujoco.MjData | None = None
+) -> tuple[float, NDArray[np.float64]]:
+    """The free joint's height and tilt (a quaternion, no yaw) of a robot at rest.
+
+    The compiled pose puts every wheel and the caster exactly on the floor (distance 0). A
+    contact at distance 0 is active or not by the sign of rounding noise (float64 here,
+    float32 in MuJoCo Warp), so resets from it fell freely for one substep on some seeds and
+    not on others (issue #41). Resets start from where the robot rests instead (sunk into
+    the soft contacts, every contact clearly active): found by letting it settle with the
+    motors holding, on an empty floor (the obstacle slots are compiled below it), from ``data``
+    (default: the compiled pose) and with ``root_qpos`` the robot's free joint in ``qpos``.
+    """
+    data = mujoco.MjData(model) if data is None else data
+    for _ in range(math.ceil(_SETTLE_SECONDS / model.opt.timestep)):
+        mujoco.mj_step(model, data)
+    adr = root_qpos
+    w, x, y, z = data.qpos[adr + 3 : adr + 7]
+    yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    tilt = np.empty(4)
+    unyaw = np.array([math.cos(yaw / 2), 0.0, 0.0, -math.sin(yaw / 2)])
+    mujoco.mju_mulQuat(tilt, unyaw, data.qpos[adr + 3 : adr + 7])
+    mujoco.mju_normalize4(tilt)
+    return float(data.qpos[adr + 2]), tilt

@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 from bubblerob_env import names
 from bubblerob_env.config import EnvConfig
 from bubblerob_env.core.worlds import NO_CONTACT, OBSTACLE_CONTACT, RobotIds
-from bubblerob_env.scene import Scene
+from bubblerob_env.scene import Scene, resting_pose
 from bubblerob_env.sensors import CameraSensor, CameraSpec
 
 __all__ = [
@@ -113,6 +113,10 @@ def world_file(config: EnvConfig, num_robots: int) -> Path:
     return path
 
 
+_SETTLE_APART = 10.0
+"""Metres between the robots (along x) while the world's rest pose is found."""
+
+
 class WorldScene:
     """``num_robots`` robots of ``config`` in one world (:class:`Scene` holds robot 0's parts).
 
@@ -130,19 +134,28 @@ class WorldScene:
         self.geom_robot = _geom_robots(model, self.robots)
         self.dofs = tuple(_dof_range(model, robot.base_body) for robot in self.robots)
         """Each robot's ``(first, count)`` in ``qvel``."""
+        if num_robots > 1:
+            # The robots are compiled on top of each other: the scene's own settle saw them
+            # tumble. Each robot rests as robot 0 does alone, the others moved far off first.
+            data = mujoco.MjData(model)
+            for k, robot in enumerate(self.robots[1:], start=1):
+                data.qpos[robot.root_qpos] += _SETTLE_APART * k
+            self.scene.rest_height, self.scene.rest_tilt = resting_pose(
+                model, self.robots[0].root_qpos, data
+            )
         self.cameras: list[CameraSensor | None] = [self.scene.camera]
         spec = self.scene.camera_spec
         for k in range(1, num_robots):
             self.cameras.append(None if spec is None else RobotCamera(model, spec, robot_prefix(k)))
 
     def place_robot(self, k: int, pose: tuple[float, float, float]) -> None:
-        """Put robot ``k`` at ``pose`` (x, y, yaw) on the floor (its free joint's ``qpos``)."""
-        model, data = self.scene.model, self.scene.data
+        """Put robot ``k`` at ``pose`` (x, y, yaw), resting on the floor (issue #41's rest pose)."""
+        scene, data = self.scene, self.scene.data
         x, y, yaw = pose
         adr = self.robots[k].root_qpos
-        height = model.body_pos[self.robots[k].base_body][2]
-        data.qpos[adr : adr + 3] = (x, y, height)
-        data.qpos[adr + 3 : adr + 7] = (np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2))
+        data.qpos[adr : adr + 3] = (x, y, scene.rest_height)
+        heading = np.array([np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)])
+        mujoco.mju_mulQuat(data.qpos[adr + 3 : adr + 7], heading, scene.rest_tilt)
         first, count = self.dofs[k]
         data.qvel[first : first + count] = 0.0
 

@@ -175,7 +175,16 @@ def test_nose_sensor_reads_the_other_robots_chassis() -> None:
     """BubbleRob's rangefinder is at the height of the chassis sphere's centre (0.09 m)."""
     env = bubblerob_env.parallel_env(num_robots=2, num_obstacles=(0, 0))
     obs, _ = env.reset(seed=0, options={"start_poses": [(0, 0, 0), (0.35, 0, math.pi)]})
-    # B faces A: its chassis sphere (r 0.075) is centred 0.015 m behind B's base_link, so at
-    # x = 0.365; A's rangefinder looks along +x from x = 0.06.
-    expected = 0.35 + 0.015 - 0.075 - 0.06
+    # B faces A: its chassis sphere (r 0.075) is centred 0.015 m behind B's base_link, so near
+    # x = 0.365; A's rangefinder looks along +x from x = 0.06: about 0.35 + 0.015 - 0.075 - 0.06.
+    # Exactly: the ray from A's sensor site along its z axis against B's sphere where the robots
+    # rest (sunk 0.26 mm, pitched 0.3 mrad: issue #41), intersected here.
+    data, model = env.world.scene.data, env.world.scene.model
+    site = model.site("proximity_ray").id
+    origin, ray = data.site_xpos[site], data.site_xmat[site].reshape(3, 3)[:, 2]
+    centre = data.geom_xpos[model.geom("robot_1/chassis").id]
+    offset = origin - centre
+    along = float(offset @ ray)
+    expected = -along - math.sqrt(along**2 - (float(offset @ offset) - 0.075**2))
+    assert abs(expected - (0.35 + 0.015 - 0.075 - 0.06)) < 1e-3
     assert abs(float(obs["bubblerob_0"]["proximity"][0]) - expected) < 1e-6
