@@ -24,6 +24,7 @@ from train.zoo import wrapper_class
 __all__ = [
     "DEFAULT_VEC_ENV",
     "VEC_ENVS",
+    "WORLDS_TASKS",
     "batch_wrapped",
     "batched_envs",
     "native_batch",
@@ -159,6 +160,13 @@ def native_batch(
         probe.close()
 
 
+WORLDS_TASKS = {
+    "bubblerob_env.env:BubbleRobEnv": "wander",
+    "bubblerob_env.tasks.nav:BubbleRobNavEnv": "nav",
+}
+"""``--vec-env worlds``: the ``parallel_env`` task of each single env's entry point."""
+
+
 def worlds_envs(
     env_id: str,
     num_worlds: int,
@@ -169,6 +177,9 @@ def worlds_envs(
 ) -> Any:
     """``--vec-env worlds``: ``num_worlds`` worlds of ``robots`` robots, one slot per robot.
 
+    A Nav env id (``BubbleRobNav-v0``) gives every slot a goal (``task="nav"``); with
+    ``robots=1`` the worlds are that env's.
+
     World ``w`` is seeded ``seed + w``; ``env_wrapper`` is applied as ``--vec-env batched``
     applies it (observation wrappers on the whole batch, a residual on the gap follower below).
     """
@@ -177,9 +188,13 @@ def worlds_envs(
     from train.worlds_vec import WorldsSB3VecEnv
 
     spec = gym.spec(env_id)
-    if spec.entry_point != "bubblerob_env.env:BubbleRobEnv":
-        raise ValueError(f"--vec-env worlds steps BubbleRob-v0 or PioneerP3DX-v0, not {env_id!r}")
-    envs: Any = WorldsSB3VecEnv(num_worlds, robots, **{**spec.kwargs, **env_kwargs})
+    task = WORLDS_TASKS.get(str(spec.entry_point))
+    if task is None:
+        raise ValueError(
+            "--vec-env worlds steps BubbleRob-v0, PioneerP3DX-v0 or their Nav-v0 tasks, "
+            f"not {env_id!r}"
+        )
+    envs: Any = WorldsSB3VecEnv(num_worlds, robots, task=task, **{**spec.kwargs, **env_kwargs})
     envs.seed(seed)
     return batch_wrapped(envs, env_id, env_kwargs, env_wrapper)
 

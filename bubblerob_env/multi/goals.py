@@ -25,7 +25,7 @@ from bubblerob_env.tasks.goals import NavProblem, clearance_grid, draw_goal, pat
 from bubblerob_env.tasks.nav import planned_problem
 from bubblerob_env.tasks.nav_rules import NAV_ARGUMENTS, WANDERING_PARTS, NavSettings, goal_reading
 
-__all__ = ["TASKS", "WorldGoals", "circle_arena_size", "task_settings"]
+__all__ = ["TASKS", "WorldGoals", "circle_arena_size", "task_config", "task_settings"]
 
 TASKS = ("wander", "nav")
 """``parallel_env``'s tasks: ``BubbleRob-v0``'s obstacle avoidance, or each robot to a goal."""
@@ -56,6 +56,26 @@ def circle_arena_size(config: EnvConfig, num_robots: int) -> float:
     radius, clearance = config.robot.radius, config.start_clearance
     circle = num_robots * (4.0 * radius + clearance) / (2.0 * math.pi)
     return math.ceil(round(20.0 * (circle + radius + clearance), 6)) / 10.0
+
+
+def task_config(
+    settings: NavSettings | None,
+    scenario: str,
+    num_robots: int,
+    kwargs: dict[str, Any],
+    robot: str,
+) -> EnvConfig:
+    """The world's config; with the Nav task on the circle, an arena that gives room to pass.
+
+    The arena grows to :func:`circle_arena_size` unless ``arena_size`` is given (``kwargs``: the
+    single env's arguments, the Nav ones already taken out by :func:`task_settings`).
+    """
+    config = EnvConfig.from_kwargs({**kwargs, "robot": robot})
+    if settings is not None and scenario == "circle" and "arena_size" not in kwargs:
+        needed = circle_arena_size(config, num_robots)
+        if needed > config.arena_size:
+            config = EnvConfig.from_kwargs({**kwargs, "robot": robot, "arena_size": needed})
+    return config
 
 
 class WorldGoals:
@@ -122,31 +142,59 @@ class WorldGoals:
 
     def start(self, k: int, info: dict[str, Any]) -> dict[str, Any]:
         """Robot ``k``'s episode begins at ``info``'s pose; ``info`` with the goal's fields."""
-        self.driven[k], self.touched[k] = 0.0, False
-        self.distance[k] = self._move(k, info)
+        self.begin(k, (float(info["x"]), float(info["y"]), float(info["yaw"])))
         return self.task_info(k, info)
 
-    def _move(self, k: int, info: dict[str, Any]) -> float:
-        self.poses[k] = (float(info["x"]), float(info["y"]), float(info["yaw"]))
+    def begin(self, k: int, pose: Pose) -> None:
+        """Robot ``k``'s episode begins at ``pose`` (x, y, yaw): nothing driven yet."""
+        self.driven[k], self.touched[k] = 0.0, False
+        self.distance[k] = self._move(k, pose)
+
+    def redraw(self, k: int, rng: np.random.Generator, start: tuple[float, float]) -> bool:
+        """A new goal for robot ``k`` starting again at ``start``: as ``"random"`` draws one.
+
+        On the world's grid, ``min_goal_distance`` from ``start`` and apart from the other
+        robots' goals; False (goal unchanged) when none qualifies.
+        """
+        taken = tuple(p.goal for j, p in enumerate(self.problems) if j != k)
+        spacing = 2 * self.config.robot.radius + self.config.start_clearance
+        grid = self.problems[k].grid
+        problem = draw_goal(rng, grid, start, self.settings.min_goal_distance, taken, spacing)
+        if problem is None:
+            return False
+        self.problems[k] = problem
+        return True
+
+    def _move(self, k: int, pose: Pose) -> float:
+        self.poses[k] = pose
         goal = self.problems[k].goal
-        return math.hypot(goal[0] - self.poses[k][0], goal[1] - self.poses[k][1])
+        return math.hypot(goal[0] - pose[0], goal[1] - pose[1])
 
     def step(
         self, k: int, info: dict[str, Any], truncated: bool
     ) -> tuple[float, bool, dict[str, Any]]:
         """Robot ``k``'s step: its reward, whether it arrived, and ``info`` with the parts."""
-        before, (x0, y0, _) = float(self.distance[k]), self.poses[k]
-        after = self._move(k, info)
-        self.distance[k] = after
-        self.driven[k] += math.hypot(self.poses[k][0] - x0, self.poses[k][1] - y0)
-        self.touched[k] = self.touched[k] or bool(info["collision"])
-        arrived = self.settings.arrived(after, bool(self.touched[k]), truncated)
-        parts = self.settings.reward_parts(before, after, arrived, float(info["reward_collision"]))
+        pose = (float(info["x"]), float(info["y"]), float(info["yaw"]))
+        parts, arrived = self.advance(
+            k, pose, bool(info["collision"]), float(info["reward_collision"]), truncated
+        )
         for key in WANDERING_PARTS:
             del info[key]
         info.update(parts)
         info["is_success"] = arrived
         return sum(parts.values()), arrived, self.task_info(k, info)
+
+    def advance(
+        self, k: int, pose: Pose, collision: bool, reward_collision: float, truncated: bool
+    ) -> tuple[dict[str, float], bool]:
+        """Robot ``k`` now at ``pose``: the step's reward parts and whether it arrived."""
+        before, (x0, y0, _) = float(self.distance[k]), self.poses[k]
+        after = self._move(k, pose)
+        self.distance[k] = after
+        self.driven[k] += math.hypot(pose[0] - x0, pose[1] - y0)
+        self.touched[k] = self.touched[k] or collision
+        arrived = self.settings.arrived(after, bool(self.touched[k]), truncated)
+        return self.settings.reward_parts(before, after, arrived, reward_collision), arrived
 
     def task_info(self, k: int, info: dict[str, Any]) -> dict[str, Any]:
         """``info`` with robot ``k``'s goal, straight distance, shortest path and driven."""

@@ -29,11 +29,10 @@ from pettingzoo import ParallelEnv
 
 from bubblerob_env.arena import ArenaLayout
 from bubblerob_env.batch.common import Observation, ObservationFormat, checked_action
-from bubblerob_env.config import EnvConfig
 from bubblerob_env.core.kernel import OUT
 from bubblerob_env.core.worlds import WorldBatch
 from bubblerob_env.infos import robot_info
-from bubblerob_env.multi.goals import WorldGoals, circle_arena_size, task_settings
+from bubblerob_env.multi.goals import WorldGoals, task_config, task_settings
 from bubblerob_env.multi.placement import check_fits, sample_world
 from bubblerob_env.multi.scene import WorldScene, agent_name, partner_name
 from bubblerob_env.odometry import Odometry, draw_slip
@@ -92,11 +91,7 @@ class MultiRobotEnv(ParallelEnv[str, Observation, NDArray[np.float32]]):  # type
             raise ValueError(
                 f"render_mode must be None or 'rgb_array', got {kwargs['render_mode']!r}"
             )
-        config = EnvConfig.from_kwargs({**kwargs, "robot": robot})
-        if settings is not None and scenario == "circle" and "arena_size" not in kwargs:
-            needed = circle_arena_size(config, num_robots)  # room to pass on the circle
-            if needed > config.arena_size:
-                config = EnvConfig.from_kwargs({**kwargs, "robot": robot, "arena_size": needed})
+        config = task_config(settings, scenario, num_robots, kwargs, robot)  # room to pass
         check_fits(config, num_robots, scenario)
         self.config = config
         self.task = task

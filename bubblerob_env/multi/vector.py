@@ -8,6 +8,12 @@ robot touched something, its time limit, or its world diverged) restarts in the 
 new robot at a free pose of its world (``SameStep`` autoreset: the last observation and
 ``info`` are in ``info["final_obs"]`` and ``info["final_info"]``), while the world's other robots
 drive on; a diverged world is drawn anew. The obstacles of a world are drawn at :meth:`reset`.
+
+``task="nav"`` gives every slot ``parallel_env(task="nav")``'s goal, ``goal`` reading, reward
+parts, ``info`` keys and success (the robot within ``goal_radius`` of its goal terminates with
+``is_success``); a slot that starts again gets a fresh goal (:mod:`~bubblerob_env.multi.
+nav_slots`). ``WorldsVectorEnv(num_robots=1, task="nav")`` is a batch of ``BubbleRobNav-v0``
+worlds with its observation space.
 """
 
 from __future__ import annotations
@@ -35,13 +41,15 @@ from bubblerob_env.batch.common import (
     world_seeds,
 )
 from bubblerob_env.batch.common import collate_infos as collate
-from bubblerob_env.config import EnvConfig
 from bubblerob_env.core.kernel import OUT
 from bubblerob_env.core.worlds import WorldBatch
 from bubblerob_env.infos import batched_step_info, robot_info, robot_step_info
+from bubblerob_env.multi.goals import task_config, task_settings
+from bubblerob_env.multi.nav_slots import SlotGoals, StepParts
 from bubblerob_env.multi.placement import check_fits, free_pose, sample_world
 from bubblerob_env.multi.scene import WorldScene, partner_name
 from bubblerob_env.odometry import Odometry, draw_slip
+from bubblerob_env.tasks.nav_rules import spaces_with_goal
 
 __all__ = ["WORLD_ARENA_MEMORY", "WorldsVectorEnv"]
 
@@ -50,6 +58,8 @@ WORLD_ARENA_MEMORY = 256 * 1024
 _COLLISION, _CLIPPED, _DIVERGED, _REWARD = (
     int(c) for c in (OUT.COLLISION, OUT.CLIPPED, OUT.DIVERGED, OUT.REWARD)
 )
+_WORLD_TRIES = 20  # worlds drawn before giving up on goals for every robot (parallel_env's)
+_RESPAWN_TRIES = 20  # free poses tried for a restarted robot with no goal in reach
 
 
 class WorldsVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
@@ -58,7 +68,8 @@ class WorldsVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
     Args:
         num_worlds: Worlds (each its own ``MjModel`` copy and ``MjData``).
         num_robots: Robots in each world.
-        robot, scenario: as :func:`~bubblerob_env.multi.parallel_env`'s.
+        robot, scenario, task: as :func:`~bubblerob_env.multi.parallel_env`'s (``task="nav"``
+            takes the Nav arguments, ``goal_radius`` ..., among ``kwargs``).
         num_threads: Threads stepping the worlds (default: the usable cores, at most the
             worlds). Results do not depend on it.
         max_episode_steps: Each slot's time limit in steps.
@@ -74,6 +85,7 @@ class WorldsVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
         *,
         robot: str = "bubblerob",
         scenario: str = "random",
+        task: str = "wander",
         num_threads: int | None = None,
         max_episode_steps: int = 1000,
         **kwargs: Any,
@@ -83,9 +95,10 @@ class WorldsVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
                 raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
         if kwargs.get("camera") or kwargs.get("render_mode") is not None:
             raise ValueError("WorldsVectorEnv has no camera and no rendering; use parallel_env")
-        config = EnvConfig.from_kwargs({**kwargs, "robot": robot})
+        settings = task_settings(task, kwargs)
+        config = task_config(settings, scenario, num_robots, kwargs, robot)
         check_fits(config, num_robots, scenario)
-        self.config, self.scenario = config, scenario
+        self.config, self.scenario, self.task = config, scenario, task
         self.max_episode_steps = max_episode_steps
         first = WorldScene(config, num_robots, WORLD_ARENA_MEMORY * num_robots)
         self.worlds = [first, *(first.spawn() for _ in range(num_worlds - 1))]
@@ -100,6 +113,15 @@ class WorldsVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
         )
         self._format = ObservationFormat(first.scene)
         self.single_observation_space = self._format.space
+        self.goals = None
+        """Every slot's goal with ``task="nav"`` (else None)."""
+        if settings is not None:
+            self.goals = SlotGoals(settings, config, num_worlds, num_robots)
+            flat = self._format.space if config.obs_mode == "flat" else None
+            assert flat is None or isinstance(flat, spaces.Box)
+            _, self.single_observation_space, _ = spaces_with_goal(
+                self._format.dict_space, flat, config.arena_size
+            )
         self.single_action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
@@ -137,6 +159,8 @@ class WorldsVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
             robot_info(self.batch.core, i, self._trigger, 0, self._odometry.poses)
             for i in range(self.num_envs)
         ]
+        if self.goals is not None:
+            infos = [self.goals.slot_info(i, info) for i, info in enumerate(infos)]
         return self._observations(), collate(infos)
 
     def _rows(self, w: int) -> NDArray[np.int64]:
@@ -145,7 +169,16 @@ class WorldsVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
     def _reset_world(self, w: int) -> None:
         world, rng = self.worlds[w], self._rngs[w]
         scene = world.scene
-        layout, poses = sample_world(rng, self.config, self.num_robots, self.scenario)
+        for _ in range(_WORLD_TRIES):  # as parallel_env's reset: the same world for a seed
+            layout, poses = sample_world(rng, self.config, self.num_robots, self.scenario)
+            if self.goals is None:
+                break
+            with_goals = self.goals.draw(w, rng, layout, poses, self.scenario)
+            if with_goals is not None:
+                layout = with_goals
+                break
+        else:
+            raise RuntimeError(f"no goal for every robot in {_WORLD_TRIES} worlds: a crowded arena")
         self._layouts[w] = layout
         mujoco.mj_resetData(scene.model, scene.data)
         scene.slots.apply(scene.model, scene.data, layout.obstacles)
@@ -153,6 +186,8 @@ class WorldsVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
             world.place_robot(k, pose)
         mujoco.mj_forward(scene.model, scene.data)
         self._start(self._rows(w), w)
+        if self.goals is not None:
+            self.goals.begin(self._rows(w).tolist(), self.batch.core.out)
 
     def _start(self, rows: NDArray[np.int64], w: int) -> None:
         self._draw_noise(rows)
@@ -175,9 +210,16 @@ class WorldsVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
             for j in self._rows(w).tolist()
             if j != i
         ]
-        world.place_robot(k, free_pose(self._rngs[w], self.config, layout.obstacles, others))
+        rng = self._rngs[w]
+        for _ in range(_RESPAWN_TRIES):
+            pose = free_pose(rng, self.config, layout.obstacles, others)
+            if self.goals is None or self.goals.redraw(i, rng, pose[:2]):
+                break
+        world.place_robot(k, pose)
         mujoco.mj_forward(world.scene.model, world.scene.data)
         self._start(np.array([i], dtype=np.int64), w)
+        if self.goals is not None:
+            self.goals.begin([i], self.batch.core.out)
 
     def _draw_noise(self, rows: NDArray[np.int64]) -> None:
         spec = self.worlds[0].scene.laser_spec
@@ -212,10 +254,15 @@ class WorldsVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
         terminated = collision & self.config.terminate_on_collision
         truncated = self._elapsed >= self.max_episode_steps
         truncated[list(diverged)] = True
+        task: tuple[StepParts, NDArray[np.bool_]] | None = None
+        if self.goals is not None:  # before any restart moves a robot
+            rewards, arrived, parts = self.goals.step(out, truncated)
+            terminated |= arrived
+            task = (parts, arrived)
         obs = self._observations()
         names, touched = self._partners(collision)
         done = terminated | truncated
-        finals = self._finals(obs, np.flatnonzero(done).tolist(), names, diverged)
+        finals = self._finals(obs, np.flatnonzero(done).tolist(), names, diverged, task)
         resets = self._restart(np.flatnonzero(done).tolist(), diverged_worlds)
         info = batched_step_info(
             core,
@@ -228,6 +275,8 @@ class WorldsVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
         )
         # Restarted slots' info is their new episode's (SameStep): no collided_with there.
         info["collided_with"], info["_collided_with"] = names, touched & ~done
+        if self.goals is not None and task is not None:
+            self.goals.step_info(info, task[0], task[1], done)
         if finals:
             add_finals(info, finals, self.num_envs)
             obs = self._observations()
@@ -242,9 +291,14 @@ class WorldsVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
         self._odometry.advance(np.arange(self.num_envs, dtype=np.int64), self.batch.core.out, slip)
 
     def _finals(
-        self, obs: BatchObs, ended: list[int], names: NDArray[Any], diverged: dict[int, str]
+        self,
+        obs: BatchObs,
+        ended: list[int],
+        names: NDArray[Any],
+        diverged: dict[int, str],
+        task: tuple[StepParts, NDArray[np.bool_]] | None,
     ) -> dict[int, tuple[Any, dict[str, Any]]]:
-        """The last observation and ``info`` of each slot in ``ended``."""
+        """The last observation and ``info`` of each slot in ``ended`` (``task``: Nav's step)."""
         finals = {}
         for i in ended:
             final_info = robot_step_info(
@@ -258,6 +312,8 @@ class WorldsVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
             )
             if names[i]:
                 final_info["collided_with"] = names[i]
+            if self.goals is not None and task is not None:
+                final_info = self.goals.final_info(i, final_info, task[0][i], bool(task[1][i]))
             finals[i] = (robot_obs(obs, i), final_info)
         return finals
 
@@ -294,7 +350,7 @@ class WorldsVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
         obs: BatchObs = self._format.assemble(
             laser, core.proximity.copy(), core.velocity.copy(), None
         )
-        return obs
+        return obs if self.goals is None else self.goals.observations(obs)
 
     def close_extras(self, **kwargs: Any) -> None:
         """Stop the threads."""
