@@ -148,3 +148,31 @@ def test_python_m_train_on_nav_worlds_gives_a_policy_for_the_single_nav_env(tmp_
     obs, _ = env.reset(seed=0)
     action, _ = model.predict(obs, deterministic=True)
     assert env.action_space.contains(action)
+
+
+def test_one_robot_worlds_first_episodes_are_the_single_nav_envs_step_for_step() -> None:
+    venv = WorldsVectorEnv(num_worlds=2, num_robots=1, task="nav", max_episode_steps=100, **FAST)
+    singles = [gym.make("BubbleRobNav-v0", max_episode_steps=100, **FAST) for _ in range(2)]
+    obs: Any
+    obs, _ = venv.reset(seed=7)
+    firsts = [env.reset(seed=7 + w)[0] for w, env in enumerate(singles)]
+    live = [True, True]
+    rng = np.random.default_rng(1)
+    for _ in range(100):
+        for w in np.flatnonzero(live).tolist():
+            for key, value in firsts[w].items():
+                np.testing.assert_array_equal(obs[key][w], value)
+        turn = np.clip(2.0 * obs["goal"][:, 1], -1, 1) + rng.normal(0, 0.3, 2)
+        actions = np.stack([0.8 - turn, 0.8 + turn], axis=1).clip(-1, 1).astype(np.float32)
+        obs, rewards, terminated, truncated, info = venv.step(actions)
+        for w in np.flatnonzero(live).tolist():
+            firsts[w], reward, ended, cut, single_info = singles[w].step(actions[w])
+            assert (rewards[w], terminated[w], truncated[w]) == (reward, ended, cut)
+            if ended or cut:
+                mine = _row(info["final_info"], w)
+                assert mine["is_success"] == single_info["is_success"]
+                assert mine["goal_distance"] == single_info["goal_distance"]
+                live[w] = False
+        if not any(live):
+            return
+    raise AssertionError("an episode outlived its time limit")
