@@ -50,10 +50,12 @@ help:
 	echo "make test-clients: Tianshou's and RLlib's tests in $(VENV_CLIENTS) (make test skips them)"
 	echo "A second run skips what is installed, and says so."
 
+# --overwrite: a second `make demo` replaces the first one's bag and video (bubblerob demo alone
+# refuses to).
 demo: demo-setup
-	@echo "run: bubblerob demo $(DEMO_ARGS)"
+	@echo "run: bubblerob demo --overwrite $(DEMO_ARGS)"
 	source $(VENV)/bin/activate
-	bubblerob demo $(DEMO_ARGS)
+	bubblerob demo --overwrite $(DEMO_ARGS)
 
 test: test-setup
 	@echo "run: python -m pytest $(PYTEST_ARGS)"

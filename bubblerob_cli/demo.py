@@ -13,6 +13,7 @@ import gymnasium as gym
 
 from bubblerob_cli.args import add_env_arguments
 from bubblerob_cli.foxglove_view import add_foxglove_option, serve
+from bubblerob_cli.outputs import Output, add_overwrite_option, require_outputs
 from bubblerob_cli.policy_checks import check_episode_arguments, check_policies
 from bubblerob_env.wrappers import TopDownView
 from policies.evaluation import (
@@ -27,7 +28,7 @@ from policies.evaluation import (
 )
 from policies.loading import load_policy
 
-__all__ = ["DemoResult", "add_demo_subcommand", "run_demo"]
+__all__ = ["DemoResult", "add_demo_subcommand", "demo_bag", "demo_video", "run_demo"]
 
 
 def add_demo_subcommand(subparsers: Any) -> None:
@@ -45,6 +46,7 @@ def add_demo_subcommand(subparsers: Any) -> None:
     demo.add_argument("--seed", type=int, default=DEFAULT_EVAL_SEED, help="first episode seed")
     demo.add_argument("--out", type=Path, default=Path("demo_output"), help="output folder")
     demo.add_argument("--no-video", action="store_true", help="skip the video")
+    add_overwrite_option(demo)
     add_env_arguments(demo)
     add_foxglove_option(demo)
     demo.set_defaults(handler=_run_demo)
@@ -57,6 +59,16 @@ class DemoResult:
     result: EvalResult
     bag: Path
     video: Path | None
+
+
+def demo_bag(out: Path, policy_name: str) -> Path:
+    """The demo's bag in ``out``."""
+    return out / f"bubblerob_demo_{Path(policy_name).stem}"
+
+
+def demo_video(out: Path, policy_name: str) -> Path:
+    """The demo's video in ``out``: its bag's name and ``.mp4``."""
+    return out / f"{demo_bag(out, policy_name).name}.mp4"
 
 
 def run_demo(
@@ -73,7 +85,8 @@ def run_demo(
     """Drive ``episodes`` episodes of the env (default ``BubbleRob-v0``) with the policy, recording.
 
     The bag (ROS 2 MCAP, Jazzy) and the video of the first episode replace those of an earlier
-    demo in ``out``. With ``foxglove`` (host, port) the episodes are also served live to Foxglove.
+    demo in ``out`` (``bubblerob demo`` refuses them without ``--overwrite``). With ``foxglove``
+    (host, port) the episodes are also served live to Foxglove.
     """
     from bubblerob_env.ros import RosBagRecorder  # the [ros] extra
 
@@ -91,7 +104,7 @@ def run_demo(
         env = RosLivePublisher(env, backend, metadata={"policy": str(policy_name)})
         publish_robot_model(backend, env, env.topics)
     policy = load_policy(policy_name, env)
-    bag = out / f"bubblerob_demo_{Path(policy_name).stem}"
+    bag = demo_bag(out, policy_name)
     command = shlex.join(["bubblerob", *sys.argv[1:]])
     recorder = RosBagRecorder(
         env,
@@ -100,7 +113,7 @@ def run_demo(
         overwrite=True,
         metadata={"policy": str(policy_name), "command": command},
     )
-    video_path = out / f"bubblerob_demo_{Path(policy_name).stem}.mp4" if video else None
+    video_path = demo_video(out, policy_name) if video else None
     stats = []
     # A bar of steps, not episodes: it moves while the first episode is filmed, too.
     bar = step_bar(env, episodes, f"demo {policy_name}", progress)
@@ -123,6 +136,16 @@ def run_demo(
 
 def _run_demo(args: argparse.Namespace) -> int:
     check_episode_arguments("demo", args)
+    bag = demo_bag(args.out, args.policy)
+    require_outputs(
+        "demo",
+        [
+            Output("--out", args.out, kind="folder"),
+            Output("--out", bag, kind="bag"),
+            None if args.no_video else Output("--out", demo_video(args.out, args.policy)),
+        ],
+        args.overwrite,
+    )
     check_policies("demo", [args.policy], args.env, args.env_kwargs)
     try:
         return _demo_and_report(args)

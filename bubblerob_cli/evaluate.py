@@ -11,7 +11,7 @@ from bubblerob_cli.demo import add_demo_subcommand
 from bubblerob_cli.errors import fail
 from bubblerob_cli.evaluate_robots import add_robots_arguments, run_robots
 from bubblerob_cli.foxglove_view import add_foxglove_option, evaluate_live
-from bubblerob_cli.outputs import Output, require_outputs, write_output
+from bubblerob_cli.outputs import Output, add_overwrite_option, require_outputs, write_output
 from bubblerob_cli.policy_checks import check_episode_arguments, check_policies
 from policies.evaluation import (
     DEFAULT_EVAL_SEED,
@@ -74,6 +74,7 @@ def add_subcommands(subparsers: Any) -> None:
         "--video-policy",
         help="the policy --video records (default: the first --policy)",
     )
+    add_overwrite_option(parser)
     parser.add_argument(
         "--ray",
         metavar="ADDRESS",
@@ -111,6 +112,7 @@ def _run_evaluate(args: argparse.Namespace) -> int:
             args.per_episode and Output("--per-episode", args.per_episode, (".json",)),
             args.video and Output("--video", args.video, (".mp4", ".gif")),
         ],
+        args.overwrite,
     )
     check_policies("evaluate", list(args.policy), args.env, args.env_kwargs)
     if args.robots is not None:

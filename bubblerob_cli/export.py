@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 
 from bubblerob_cli.args import HelpFormatter
+from bubblerob_cli.outputs import Output, OutputError, add_overwrite_option, check_outputs
 from bubblerob_env.extras import require_extra
 from policies.export_onnx import SHIPPED_MODEL, export_onnx
 
@@ -25,6 +27,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("model", type=Path, nargs="?", default=SHIPPED_MODEL, help="SB3 .zip")
     parser.add_argument("--out", type=Path, help="ONNX file (default: the model's path, .onnx)")
+    add_overwrite_option(parser)
     return parser
 
 
@@ -35,6 +38,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     require_extra("train", PROG)
     if not args.model.is_file():
         parser.error(f"model {args.model} does not exist")
-    out = export_onnx(args.model, args.out)
+    out = args.out if args.out is not None else args.model.with_suffix(".onnx")
+    try:
+        check_outputs([Output("--out", out, (".onnx",))], args.overwrite, inputs=[args.model])
+    except OutputError as error:
+        print(f"{PROG}: {error}", file=sys.stderr)
+        return 2
+    try:
+        out = export_onnx(args.model, out)
+    except OSError as error:  # a full disk: one line
+        print(f"{PROG}: cannot write --out {out}: {error.strerror or error}", file=sys.stderr)
+        return 1
     print(f"wrote {out}")
     return 0

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from bubblerob_cli.errors import report
-from bubblerob_cli.outputs import Output, OutputError, check_outputs
+from bubblerob_cli.outputs import Output, OutputError, add_overwrite_option, check_outputs
 from bubblerob_env.png import write_png
 from bubblerob_env.ros import localize
 from bubblerob_env.ros.localize_bag import LocalizeBagError, read_bag_episodes
@@ -41,6 +41,7 @@ def add_subcommands(subparsers: Any) -> None:
     parser.add_argument(
         "--out", default=None, help="PNG to write (default: beside the bag, BAG.localize.png)"
     )
+    add_overwrite_option(parser)
     parser.add_argument("--seed", type=int, default=0, help="the filter's seed (episode k: +k)")
     parser.set_defaults(handler=_run)
 
@@ -74,7 +75,7 @@ def _run(args: argparse.Namespace) -> int:
         if not 0 <= args.seed <= 2**63 - 1:
             raise LocalizeBagError(f"--seed must be an int from 0 to {2**63 - 1}, got {args.seed}")
         out = Path(args.out) if args.out is not None else localize.default_png(args.bag)
-        check_outputs([Output("--out", out, (".png",))], inputs=[args.bag])
+        check_outputs([Output("--out", out, (".png",))], args.overwrite, inputs=[args.bag])
         bag = read_bag_episodes(args.bag, args.robot)
     except (OSError, LocalizeBagError, OutputError) as error:
         report("localize", str(error))

@@ -8,7 +8,7 @@ from typing import Any
 
 from bubblerob_cli.args import env_kwargs_json
 from bubblerob_cli.errors import report
-from bubblerob_cli.outputs import Output, check_outputs
+from bubblerob_cli.outputs import Output, add_overwrite_option, check_outputs
 from bubblerob_env.mapping import DEFAULT_RESOLUTION, check_resolution
 from bubblerob_env.ros.map_bag import MapError, map_bag, map_png
 
@@ -28,6 +28,7 @@ def add_subcommands(subparsers: Any) -> None:
     parser.add_argument("--episode", type=int, default=0, help="index of the episode to map")
     parser.add_argument("--resolution", default=DEFAULT_RESOLUTION, help="m/cell, 0.005 to 1")
     parser.add_argument("--out", default="map.png", help="PNG to write")
+    add_overwrite_option(parser)
     parser.add_argument(
         "--robot", default=None, help="a record --robots bag: the robot to map (robot_1)"
     )
@@ -52,7 +53,9 @@ def _run(args: argparse.Namespace) -> int:
         resolution = check_resolution(args.resolution)
         if args.episode < 0:
             raise MapError(f"--episode must be an episode index >= 0, got {args.episode}")
-        check_outputs([Output("--out", Path(args.out), (".png",))], inputs=[args.bag])
+        check_outputs(
+            [Output("--out", Path(args.out), (".png",))], args.overwrite, inputs=[args.bag]
+        )
     except ValueError as error:  # OutputError too
         report("map", str(error))
         return 2

@@ -17,6 +17,7 @@ import numpy as np
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
 from bubblerob_cli.args import add_env_arguments, make_env, with_options
 from bubblerob_cli.errors import report
+from bubblerob_cli.outputs import Output, OutputError, add_overwrite_option, check_outputs
 from bubblerob_env.mapping import check_resolution
 from bubblerob_env.ros.bags.sinks import COMPRESSIONS, FORMATS
 from bubblerob_env.ros.messages.topics import PRESETS, topics_preset
@@ -24,7 +25,7 @@ from bubblerob_env.ros.readback.replay import ReplayError, replay_bag
 from bubblerob_env.ros.readback.summary import read_summary
 from bubblerob_env.ros.recorder import RosBagRecorder
 
-__all__ = ["MAX_SEED", "add_subcommands", "record_env_kwargs"]
+__all__ = ["MAX_SEED", "add_subcommands", "bag_name", "record_env_kwargs"]
 
 MAX_SEED = 2**63 - 1
 """Largest seed ``reset`` takes here (NumPy seeds are ints >= 0; the bag's metadata keeps int64)."""
@@ -73,7 +74,7 @@ def _add_record(subparsers: Any) -> None:
     record.add_argument("--topics", choices=sorted(PRESETS), default="default", help="names")
     record.add_argument("--namespace", default="", help="prefix for the robot's topics")
     record.add_argument("--per-episode", action="store_true", help="one bag per episode")
-    record.add_argument("--overwrite", action="store_true", help="replace an existing bag")
+    add_overwrite_option(record)
     record.add_argument(
         "--start-time",
         default=None,
@@ -175,6 +176,29 @@ def _policy_error(name: str, error: Exception) -> str:
     return f"cannot load the policy file {name}: {type(error).__name__}: {first}"
 
 
+def bag_name(args: argparse.Namespace) -> str:
+    """The bag ``record`` writes in ``--out`` (``--ray``: one per task, named by its seeds)."""
+    robots = f"_{args.robots}robots" if args.robots != 1 else ""
+    return f"bubblerob_{Path(args.policy).stem}{robots}_seed{args.seed}"
+
+
+def _output_problem(args: argparse.Namespace) -> str | None:
+    """Why ``--out`` or a bag in it cannot be written (an existing bag: without --overwrite)."""
+    from bubblerob_env.ros.bags.sinks import bag_path
+
+    outputs = [Output("--out", args.out, kind="folder")]
+    if args.ray is None:  # Ray's bags are named by their tasks' seeds: checked once planned
+        bag = args.out / bag_name(args)
+        episodes = [bag / f"episode_{k:06d}" for k in range(args.episodes)]
+        for path in episodes if args.per_episode and args.robots == 1 else [bag]:
+            outputs.append(Output("--out", bag_path(path, args.format), kind="bag"))
+    try:
+        check_outputs(outputs, args.overwrite)
+    except OutputError as error:
+        return str(error)
+    return None
+
+
 def record_env_kwargs(args: argparse.Namespace) -> dict[str, Any]:
     """``gym.make`` kwargs of ``record``: ``--env-kwargs``, then ``--camera``, ``--max-steps``."""
     options: dict[str, tuple[str, Any]] = {}
@@ -186,20 +210,20 @@ def record_env_kwargs(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _record(args: argparse.Namespace) -> int:
-    problem = _record_usage_error(args)
+    problem = _record_usage_error(args) or _output_problem(args)
     if problem is not None:
         report("record", problem)
         return 2
     if args.robots != 1:
         from bubblerob_cli.record_robots import record_robots
 
-        return record_robots(args, record_env_kwargs(args))
+        return record_robots(args, record_env_kwargs(args), args.out / bag_name(args))
     if args.ray is not None:  # bubblerob_cli.ray.record imports Ray; this module does not
         from bubblerob_cli.ray.record import record_command
 
         return record_command(args, record_env_kwargs(args))
     env = make_env("record", args.env, record_env_kwargs(args), dict_observations=True)
-    name = f"bubblerob_{Path(args.policy).stem}_seed{args.seed}"
+    name = bag_name(args)
     try:
         policy = _load_policy(args.policy, env, args.seed)
     except Exception as error:  # noqa: BLE001 - said in one line by _policy_error

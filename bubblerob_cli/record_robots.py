@@ -18,8 +18,8 @@ from bubblerob_cli.errors import report
 __all__ = ["record_robots", "replay_world_bag", "robot_summary"]
 
 
-def record_robots(args: argparse.Namespace, kwargs: dict[str, Any]) -> int:
-    """``bubblerob record --robots N``: one bag with every robot, each driven by ``--policy``."""
+def record_robots(args: argparse.Namespace, kwargs: dict[str, Any], bag: Path) -> int:
+    """``bubblerob record --robots N``: the bag ``bag``, every robot driven by ``--policy``."""
     import bubblerob_env
     from bubblerob_env.extras import require_extra
     from bubblerob_env.mapping import check_resolution
@@ -46,9 +46,8 @@ def record_robots(args: argparse.Namespace, kwargs: dict[str, Any]) -> int:
     try:
         base = topics_preset(args.topics, "", not args.no_detections)
         topics = [robot_topics(base, k) for k in range(args.robots)]
-        name = f"bubblerob_{Path(args.policy).stem}_{args.robots}robots_seed{args.seed}"
         path, total = record_world(
-            args.out / name,
+            bag,
             env,
             topics,
             _driver(args, kwargs),

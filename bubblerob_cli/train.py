@@ -15,6 +15,7 @@ from typing import Any
 
 from bubblerob_cli.args import HelpFormatter
 from bubblerob_cli.foxglove_view import add_foxglove_option, quiet_sdk_log
+from bubblerob_cli.outputs import Output, add_overwrite_option, check_outputs
 from bubblerob_cli.ray.sweep import add_sweep_arguments
 from bubblerob_env.extras import require_extra
 from train.checks import check_hyperparams, check_train_arguments, parse_overrides
@@ -117,6 +118,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "every time; the best model is chosen on them (default: 10)",
     )
     parser.add_argument("--out", type=Path, help="output folder (default runs/<algo>-<env>-<seed>)")
+    add_overwrite_option(parser)  # a folder with files in it: refused without it
     parser.add_argument(
         "--set",
         action="append",
@@ -150,8 +152,32 @@ def _checked(args: argparse.Namespace, out: Path) -> dict[str, Any]:
     check_hyperparams(args.algo, config)
     for seed in args.seeds or [args.seed]:
         check_training_seeds(seed, int(args.n_envs or config.get("n_envs", 1)))
+    check_outputs([Output("--out", out, kind="run")], args.overwrite)  # an OutputError: ValueError
+    if args.overwrite:
+        _remove_earlier_run(out)
     out.mkdir(parents=True, exist_ok=True)
     return overrides
+
+
+def _remove_earlier_run(out: Path) -> None:
+    """Remove the files an earlier run (or sweep) wrote in ``out``; other files stay.
+
+    ``--overwrite`` replaces a run: a best model or checkpoint this run never writes (no
+    evaluation before its end, fewer steps) must not pass as this run's.
+    """
+    import shutil
+
+    from policies import runs
+
+    models = [out / runs.FINAL_MODEL, out / runs.BEST_MODEL]
+    files = [*models, *(runs.normalization_path(m) for m in models), out / "evaluations.npz"]
+    records = (runs.CONFIG_FILE, runs.SETTINGS_FILE, runs.COMMAND_FILE, runs.VERSIONS_FILE)
+    files += [out / name for name in (*records, runs.TRAIN_TIME_FILE, runs.SWEEP_FILE)]
+    for path in files:
+        path.unlink(missing_ok=True)
+    for folder in [out / runs.CHECKPOINTS, out / runs.TENSORBOARD, *out.glob("seed_*")]:
+        if folder.is_dir() and not folder.is_symlink():
+            shutil.rmtree(folder)
 
 
 def run(args: argparse.Namespace, command: str, program: str) -> int:

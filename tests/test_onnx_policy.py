@@ -24,7 +24,7 @@ ROOT = Path(__file__).resolve().parents[1]
 TRAINED = ROOT / "policies" / "trained"
 ONNX = TRAINED / "ppo_bubblerob_v0.onnx"
 TOLERANCE = 1e-5
-EXPORT_COMMAND = "python -m policies.export_onnx"
+EXPORT_COMMAND = "python -m policies.export_onnx --overwrite"
 
 
 def _env_observations(policy, seeds=range(5), steps=300):

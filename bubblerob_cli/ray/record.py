@@ -110,16 +110,12 @@ def _recorder_kwargs(args: Any) -> dict[str, Any]:
 
 def _check_targets(out: Path, names: list[str], fmt: str, overwrite: bool) -> None:
     """Fail before any task on an existing bag (without --overwrite) or an unwritable folder."""
+    from bubblerob_cli.outputs import Output, check_outputs
     from bubblerob_env.ros.bags.sinks import bag_path
 
-    for name in names:
-        target = bag_path(out / name, fmt)
-        if target.exists() and not overwrite:
-            raise ValueError(f"bag {target} already exists; pass --overwrite to replace it")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as error:
-        raise ValueError(f"--out {out}: {error.strerror or error}") from None
+    bags = [Output("--out", bag_path(out / name, fmt), kind="bag") for name in names]
+    check_outputs([Output("--out", out, kind="folder"), *bags], overwrite)
+    out.mkdir(parents=True, exist_ok=True)
 
 
 def _plan(args: Any, chunk_size: int | None, cpus: float) -> list[range]:

@@ -23,6 +23,7 @@ import gymnasium as gym
 
 from bubblerob_cli.args import add_env_arguments, make_env
 from bubblerob_cli.errors import fail
+from bubblerob_cli.outputs import Output, add_overwrite_option, require_outputs
 from bubblerob_cli.teleop.ros import RosLink, run_ros_teleop
 from bubblerob_cli.teleop.sim import run_teleop
 from bubblerob_env.extras import require_extra
@@ -60,11 +61,12 @@ def _run_ros(args: argparse.Namespace) -> int:
     from bubblerob_env.ros.live.backend import BackendError
     from bubblerob_env.ros.messages.topics import topics_preset
 
-    local = (args.record, args.start_pose, args.num_obstacles)
+    local = (args.record, args.start_pose, args.num_obstacles, args.overwrite or None)
     if any(option is not None for option in local):
         fail(
             "teleop",
-            "--record, --start-pose and --num-obstacles are for the local simulation; with --ros "
+            "--record, --overwrite, --start-pose and --num-obstacles are for the local "
+            "simulation; with --ros "
             "give them to `bubblerob node` (--env-kwargs, rosbag record)",
         )
     try:
@@ -91,16 +93,16 @@ def _run_ros(args: argparse.Namespace) -> int:
     return 0
 
 
-def _recorded(env: gym.Env[Any, Any], record: str) -> gym.Env[Any, Any]:
-    """``env`` wrapped in the bag recorder that writes ``record`` (a bag there: exit 2)."""
+def _recorded(env: gym.Env[Any, Any], record: str, overwrite: bool) -> gym.Env[Any, Any]:
+    """``env`` wrapped in the bag recorder that writes ``record`` (checked before: exit 2)."""
     require_extra("ros", "bubblerob teleop --record")
     from bubblerob_env.ros import RosBagRecorder
 
     try:
-        return RosBagRecorder(env, record, metadata={"policy": "teleop"})
-    except FileExistsError:  # a usage error: exit 2
+        return RosBagRecorder(env, record, overwrite=overwrite, metadata={"policy": "teleop"})
+    except FileExistsError:  # made since the check: a usage error, exit 2
         env.close()
-        fail("teleop", f"bag {record} already exists; --record another path")
+        fail("teleop", f"bag {record} already exists; pass --overwrite to replace it")
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -119,13 +121,13 @@ def _run(args: argparse.Namespace) -> int:
         kwargs["start_pose"] = tuple(args.start_pose)
     if args.num_obstacles is not None:
         kwargs["num_obstacles"] = tuple(args.num_obstacles)
+    if args.record is not None:  # before the env: an existing bag without --overwrite
+        bag = Output("--record", Path(args.record), kind="bag")
+        require_outputs("teleop", [bag], args.overwrite)
     env: gym.Env[Any, Any] = make_env("teleop", args.env, args.env_kwargs, **kwargs)
-    if args.record is not None and Path(args.record).exists():  # as the recorder refuses it
-        env.close()
-        fail("teleop", f"bag {args.record} already exists; --record another path")
     _require_terminal(env.close)  # before a bag is started
     if args.record is not None:
-        env = _recorded(env, args.record)
+        env = _recorded(env, args.record, args.overwrite)
     try:
         info = curses.wrapper(run_teleop, env, args.seed, args.max_seconds)
     finally:
@@ -158,6 +160,7 @@ def _add_local_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--record", metavar="DIR", default=None, help="record the drive as a bag (ros extra)"
     )
+    add_overwrite_option(parser)
 
 
 def _add_ros_options(parser: argparse.ArgumentParser) -> None:

@@ -30,7 +30,7 @@ def test_map_reads_vrep_and_namespaced_bags_as_default_ones(short_bag, tmp_path:
     lines = []
     for topics in (None, topics_preset("vrep"), topics_preset("default", "robot2")):
         status, out, err = run(
-            "map", str(short_bag(topics=topics)), "--out", str(tmp_path / "m.png")
+            "map", str(short_bag(topics=topics)), "--out", str(tmp_path / "m.png"), "--overwrite"
         )
         assert status == 0, err
         assert "scans: 13" in out
@@ -40,7 +40,7 @@ def test_map_reads_vrep_and_namespaced_bags_as_default_ones(short_bag, tmp_path:
 
 def test_map_without_scans_is_na_and_exit_1(short_bag, tmp_path: Path) -> None:
     for bag in (short_bag(laser_num_rays=0), short_bag(topics=Topics(scan=None))):
-        status, out, err = run("map", str(bag), "--out", str(tmp_path / "m.png"))
+        status, out, err = run("map", str(bag), "--out", str(tmp_path / "m.png"), "--overwrite")
         assert status == 1, (out, err)
         assert "n/a (no scan was placed" in _iou_line(out)
         assert one_line(err) and "bubblerob map: no IoU" in err
@@ -55,7 +55,7 @@ def test_map_env_options_are_honoured_or_refused(short_bag, tmp_path: Path) -> N
         ["--env-kwargs", '{"arena_size": -3}'],
         ["--env-kwargs", '{"foo": 1}'],
     ):
-        status, _, err = run("map", bag, "--out", out, *bad)
+        status, _, err = run("map", bag, "--out", out, "--overwrite", *bad)
         assert status == 2 and one_line(err), (bad, err)
 
 
