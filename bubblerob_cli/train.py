@@ -153,8 +153,6 @@ def _checked(args: argparse.Namespace, out: Path) -> dict[str, Any]:
     for seed in args.seeds or [args.seed]:
         check_training_seeds(seed, int(args.n_envs or config.get("n_envs", 1)))
     check_outputs([Output("--out", out, kind="run")], args.overwrite)  # an OutputError: ValueError
-    if args.overwrite:
-        _remove_earlier_run(out)
     out.mkdir(parents=True, exist_ok=True)
     return overrides
 
@@ -216,6 +214,8 @@ def run(args: argparse.Namespace, command: str, program: str) -> int:
             "episodes, within 4% of the wall time)",
             flush=True,
         )
+    if args.overwrite:  # every option checked: the earlier run goes only now
+        _remove_earlier_run(out)
     if sweep:  # one run per --seeds seed, as Ray tasks
         from bubblerob_cli.ray.sweep import run_sweep
 
