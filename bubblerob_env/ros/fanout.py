@@ -12,21 +12,71 @@ fan-out imports neither ``bags`` nor ``live``, which both build on it.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any, SupportsFloat
+from typing import Any, Protocol, SupportsFloat
 
 from numpy.typing import NDArray
 
 from bubblerob_env.ros.fastpath.batch import FrameBatch
-from bubblerob_env.ros.fastpath.framing import Framing, PackedBatchWriter, PackedWriter
+from bubblerob_env.ros.fastpath.framing import FrameLayout, Framing, PackedWriter, Record
 from bubblerob_env.ros.fastpath.serializer import FramePacker, FrameSerializer
 from bubblerob_env.ros.messages.detections import Recognised
 from bubblerob_env.ros.messages.topics import Topics
 from bubblerob_env.ros.sink import Sink
 from bubblerob_env.specs import EnvSpecs
 
-__all__ = ["MessageFanout"]
+__all__ = ["Detector", "MessageFanout"]
 
 _Send = Callable[[tuple[Any, ...], int, int], None]  # (frame args, stamp, action stamp)
+
+
+class Detector(Protocol):
+    """What the fan-out needs of a recogniser: a ``bubblerob_env.vision`` ``Recogniser``."""
+
+    def __call__(self, image: NDArray[Any], /) -> Sequence[Recognised]:
+        """The objects in one ``(height, width, 3)`` image."""
+
+    def many(self, images: NDArray[Any], /) -> Sequence[Sequence[Recognised]]:
+        """The objects in each of ``(n, height, width, 3)`` images, as ``n`` calls would find."""
+
+
+class _BatchWriters:
+    """The sinks of one distro and framing that take a batch's packed frames.
+
+    Without ``/detections``: each sink's :meth:`~bubblerob_env.ros.sink.Sink.packed_batch_writer`
+    takes the whole batch. With them (``detects``), each frame's detections record follows it,
+    so each sink gets what it gets frame by frame: the frame
+    (:meth:`~bubblerob_env.ros.sink.Sink.packed_writer`), then its record: the same calls, so
+    the same bytes, with the frames converted, packed and recognised in one go.
+    """
+
+    def __init__(self, sinks: list[Sink], detects: bool) -> None:
+        self.batch_writers = [] if detects else [sink.packed_batch_writer() for sink in sinks]
+        self.frame_writers = [(s.packed_writer(), s.write_batch) for s in sinks] if detects else []
+
+    def write(
+        self, data: Any, layout: FrameLayout, stamps: NDArray[Any], action_stamps: NDArray[Any]
+    ) -> None:
+        """Write ``len(stamps)`` frames packed back to back in ``data`` to every sink."""
+        for write in self.batch_writers:
+            write(data, layout, stamps, action_stamps)
+
+    def write_each(
+        self,
+        data: Any,
+        layout: FrameLayout,
+        stamps: list[int],
+        action_stamps: list[int],
+        after: list[list[Record]],
+    ) -> None:
+        """Write each packed frame of ``data``, then its records ``after[i]``, to every sink."""
+        size, view = layout.size, memoryview(data).cast("B")
+        for write_frame, write_records in self.frame_writers:
+            for index, (stamp, action_stamp, records) in enumerate(
+                zip(stamps, action_stamps, after, strict=True)
+            ):
+                frame = view[index * size : (index + 1) * size]
+                write_frame(frame, layout, stamp, action_stamp)  # type: ignore[arg-type]
+                write_records(records)
 
 
 class MessageFanout:
@@ -53,7 +103,7 @@ class MessageFanout:
         self.topics = topics
         self.batch_frames = batch_frames
         self._batch: FrameBatch | None = None  # gathering frames after steps, if batching
-        self._batch_sends: list[tuple[FramePacker, list[PackedBatchWriter]]] = []
+        self._batch_sends: list[tuple[str, FramePacker, _BatchWriters]] = []
         self._serializers: dict[str, FrameSerializer] = {}
         self._sinks: dict[str, list[Sink]] = {}
         self._sends: dict[str, tuple[_Send, _Send]] = {}  # per distro: after a reset, a step
@@ -61,7 +111,7 @@ class MessageFanout:
         self._convert: Callable[..., tuple[Any, ...]] | None = None  # frame_args
         self.detects = specs.camera is not None and topics.detections is not None
         """Whether frames carry ``/detections``: then each image goes through :attr:`detector`."""
-        self.detector: Callable[[NDArray[Any]], Sequence[Recognised]] | None = None
+        self.detector: Detector | None = None
         """The recogniser of the camera's images (``EpisodeStream.reset`` sets one for its env)."""
 
     def serializer(self, distro: str) -> FrameSerializer:
@@ -111,17 +161,15 @@ class MessageFanout:
         sinks = self.sinks
         if not self.batch_frames or not sinks or any(s.framing() is None for s in sinks):
             return
-        if self.detects:  # each frame's /detections follow it: frame by frame, as live
-            return
-        groups: dict[tuple[str, Framing], list[PackedBatchWriter]] = {}
+        groups: dict[tuple[str, Framing], list[Sink]] = {}
         for sink in sinks:
             framing = sink.framing()
             assert framing is not None
-            groups.setdefault((sink.distro, framing), []).append(sink.packed_batch_writer())
+            groups.setdefault((sink.distro, framing), []).append(sink)
         size = 1
-        for (distro, framing), writers in groups.items():
+        for (distro, framing), group in groups.items():
             packer = self._serializers[distro].packer(framing, stepped=True)
-            self._batch_sends.append((packer, writers))
+            self._batch_sends.append((distro, packer, _BatchWriters(group, self.detects)))
             size = max(size, packer.layout.size)
         # About a chunk's worth (1 MiB) at most: camera frames are ~50x larger than the rest.
         self._batch = FrameBatch(self.specs, max(1, min(self.batch_frames, 2**20 // size)))
@@ -134,10 +182,25 @@ class MessageFanout:
         count = len(batch)
         columns = batch.columns()
         stamps, action_stamps = columns["log_ns"], columns["action_log_ns"]
-        for packer, writers in self._batch_sends:
+        found = self._recognise(columns["image"], count) if self.detects else None
+        for distro, packer, writers in self._batch_sends:
             data = packer.pack_many(columns, count)
-            for write in writers:
-                write(data, packer.layout, stamps, action_stamps)
+            if found is None:
+                writers.write(data, packer.layout, stamps, action_stamps)
+                continue
+            serializer = self._serializers[distro]
+            seqs, stamp_list = columns["seq"].tolist(), stamps.tolist()
+            after = [
+                serializer.detections(objects, stamp, seq)
+                for objects, stamp, seq in zip(found, stamp_list, seqs, strict=True)
+            ]
+            writers.write_each(data, packer.layout, stamp_list, action_stamps.tolist(), after)
+
+    def _recognise(self, images: NDArray[Any], count: int) -> Sequence[Sequence[Recognised]]:
+        """The objects in each of a batch's ``count`` images (rows of their bytes), at once."""
+        camera = self.specs.camera
+        assert camera is not None
+        return self._detector().many(images.reshape(count, camera.height, camera.width, 3))
 
     def _sender(self, distro: str, stepped: bool) -> _Send:
         serializer = self._serializers[distro]
@@ -221,15 +284,18 @@ class MessageFanout:
         if self.detects:
             self._write_detections(obs["camera"], stamp_ns, seq)
 
-    def _write_detections(self, image: NDArray[Any], stamp_ns: int, seq: int) -> None:
-        """``/detections`` of a frame's ``image``, recognised once, to every sink."""
+    def _detector(self) -> Detector:
         if self.detector is None:
             raise RuntimeError(
                 "frames with a camera have /detections: set MessageFanout.detector (a "
                 "bubblerob_env.vision Recogniser; EpisodeStream.reset does) or leave the "
                 "topic out (Topics(detections=None))"
             )
-        found = self.detector(image)
+        return self.detector
+
+    def _write_detections(self, image: NDArray[Any], stamp_ns: int, seq: int) -> None:
+        """``/detections`` of a frame's ``image``, recognised once, to every sink."""
+        found = self._detector()(image)
         for distro, sinks in self._sinks.items():
             records = self._serializers[distro].detections(found, stamp_ns, seq)
             for sink in sinks:

@@ -24,7 +24,9 @@ blue counts as the palette's blue.
 
 from __future__ import annotations
 
+import itertools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -38,7 +40,14 @@ from bubblerob_env.robots.bubblerob import BUBBLEROB
 from bubblerob_env.robots.description import RobotDescription
 from bubblerob_env.sensors import CameraSpec
 from bubblerob_env.vision.geometry import CameraPose, column_to_bearing
-from bubblerob_env.vision.segment import components, pixel_codes
+from bubblerob_env.vision.segment import (
+    KIND_BOX,
+    KIND_CYLINDER,
+    KIND_WALL,
+    components,
+    frame_objects,
+    pixel_codes,
+)
 
 __all__ = ["Detection", "Recogniser", "cut_half_width", "obstacle_height"]
 
@@ -177,6 +186,36 @@ class Recogniser:
         detections.sort(key=lambda d: -d.pixels)
         return detections
 
+    def many(self, frames: NDArray[np.uint8]) -> list[list[Detection]]:
+        """The objects in each of ``frames`` ``(n, height, width, 3)``, as ``self`` finds them.
+
+        ``[self(f) for f in frames]``, with the pixel work of every frame in one compiled call.
+        Frame by frame, the loop over components and their brightness levels costs more than the
+        pixels; :func:`~bubblerob_env.vision.segment.frame_objects` does it in the same call,
+        and only the geometry of what it keeps runs here (the same code, so the same numbers:
+        ``tests/ros/test_batched_detections.py`` checks on recorded frames).
+        """
+        height, width = self.spec.height, self.spec.width
+        if frames.ndim != 4 or frames.shape[1:] != (height, width, 3):
+            raise ValueError(
+                f"frames shape {frames.shape} is not (n, {height}, {width}, 3), the camera's"
+            )
+        offsets, rows, bright = frame_objects(
+            np.ascontiguousarray(frames, dtype=np.uint8), self._hues, self.min_pixels,
+            MAX_BOX_LEVELS,
+        )  # fmt: skip
+        found = [
+            self._detection(_KINDS[kind], None if kind == KIND_WALL else self._colours[colour],
+                            stat, column)
+            for (kind, colour, *stat), column in zip(rows.tolist(), bright.tolist(), strict=True)
+        ]  # fmt: skip
+        by_frame = []
+        for start, end in itertools.pairwise(offsets.tolist()):
+            detections = found[start:end]
+            detections.sort(key=_by_pixels)
+            by_frame.append(detections)
+        return by_frame
+
     def _near_depth(self, v_min: int, v_max: int) -> float:
         """Depth of the nearest point of an object's base from its rows.
 
@@ -195,7 +234,11 @@ class Recogniser:
         return NEAR_FRACTION * bound
 
     def _detection(
-        self, kind: str, colour: str | None, stat: NDArray[np.int64], bright_column: float
+        self,
+        kind: str,
+        colour: str | None,
+        stat: Sequence[int] | NDArray[np.int64],
+        bright_column: float,
     ) -> Detection:
         pixels, u_min, v_min, u_max, v_max = (int(s) for s in stat)
         width, focal = self.spec.width, self.spec.focal_length
@@ -230,6 +273,14 @@ class Recogniser:
         return Detection(
             kind, colour, (u_min, v_min, u_max, v_max), pixels, bearing, distance, truncated
         )
+
+
+_KINDS = {KIND_BOX: "box", KIND_CYLINDER: "cylinder", KIND_WALL: "wall"}
+
+
+def _by_pixels(detection: Detection) -> int:
+    """Sort key: largest first."""
+    return -detection.pixels
 
 
 def obstacle_height(env: Any) -> float:

@@ -15,6 +15,7 @@ from bubblerob_env.ros.fanout import MessageFanout
 from bubblerob_env.ros.fastpath.framing import Framing, Record
 from bubblerob_env.ros.messages.topics import Topics
 from bubblerob_env.specs import EnvSpecs
+from bubblerob_env.vision.recognise import Recogniser
 
 EPOCH_NS = 1_700_000_000_123_456_789
 """A real start time with every digit used: nanoseconds carry into seconds mid-episode."""
@@ -64,18 +65,20 @@ def _record(
     mode: str,
     chunk_bytes: int,
     collect: bool = False,
+    detections: bool = False,
     **env_kwargs: object,
 ) -> tuple[Path, list[Record]]:
     """Record three episodes as a recorder does; ``mode``: "batched", "packed" (frame by frame)
-    or "records"."""
+    or "records". ``detections``: camera frames with ``/detections``."""
     env = gym.make("BubbleRob-v0", max_episode_steps=70, **env_kwargs)
     bag = open_bag(path, fmt, compression=compression, chunk_size=chunk_bytes)
     assert bag.framing() is not None
     sink = _RecordsOnly(bag) if mode == "records" else bag  # the record-by-record path
     batch_frames = {"batched": 7, "packed": 0, "records": 0}[mode]
-    # /detections turn batching off (tests/ros/test_detections.py): camera frames batch without.
-    topics = Topics(detections=None)
+    topics = Topics() if detections else Topics(detections=None)
     fanout = MessageFanout(EnvSpecs.from_env(env), topics, batch_frames=batch_frames)
+    if detections:
+        fanout.detector = Recogniser.for_env(env.unwrapped)
     fanout.add_sink(sink)
     assert fanout.batching == (mode == "batched")
     records: list[Record] = []
@@ -156,6 +159,22 @@ def test_batched_frames_match_frame_by_frame_for_every_observation_set(tmp_path,
     batched, _ = _record(tmp_path / "a" / "bag", "mcap", "none", "batched", 20_000, **env_kwargs)
     packed, _ = _record(tmp_path / "b" / "bag", "mcap", "none", "packed", 20_000, **env_kwargs)
     _assert_same_bags(batched, packed, "mcap")
+
+
+@pytest.mark.parametrize(
+    ("fmt", "compression", "chunk_bytes"),
+    [("mcap", "zstd", 2**20), ("mcap", "none", 20_000), ("sqlite3", "none", 2**20),
+     ("ros1", "lz4", 20_000)],
+)  # fmt: skip
+def test_batched_detections_write_the_bytes_frame_by_frame_writes(
+    tmp_path, fmt, compression, chunk_bytes
+):
+    # Each frame's /detections record follows it, also where a 20 kB chunk closes between them
+    # (a 64x64 frame is ~13 kB): the batch recognises every image at once, the bytes stay.
+    kwargs = {"camera": True, "obstacle_colours": True, "detections": True}
+    batched, _ = _record(tmp_path / "a" / "bag", fmt, compression, "batched", chunk_bytes, **kwargs)
+    packed, _ = _record(tmp_path / "b" / "bag", fmt, compression, "packed", chunk_bytes, **kwargs)
+    _assert_same_bags(batched, packed, fmt)
 
 
 def test_framing_headers_name_their_log_time_slots():

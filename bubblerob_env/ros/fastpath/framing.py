@@ -149,6 +149,8 @@ def index_frames(frames: list[Frame], index: Index) -> tuple[int, int, dict[int,
 
     Returns the lowest and highest log time and the number of records per channel.
     """
+    if len(frames) == 1 and not isinstance(frames[0][2], np.ndarray):
+        return _index_frame(frames[0], index)
     low, high = NO_TIME, 0
     counts: dict[int, int] = defaultdict(int)
     for layout, positions, frame_stamps, action_stamps in _runs(frames):
@@ -163,6 +165,20 @@ def index_frames(frames: list[Frame], index: Index) -> tuple[int, int, dict[int,
             low = min(low, int(stamps[action].min()))
             high = max(high, int(stamps[action].max()))
     return low, high, counts
+
+
+def _index_frame(frame: Frame, index: Index) -> tuple[int, int, dict[int, int]]:
+    """:func:`index_frames` of one frame: its entries as tuples, which numpy would only slow.
+
+    Frames followed each by a record (``/detections``) are indexed one at a time.
+    """
+    layout, pos, stamp, action_stamp = frame
+    counts: dict[int, int] = defaultdict(int)
+    for cid, offset, action in zip(layout.channels, layout.offsets, layout.action, strict=True):
+        index[cid].append((action_stamp if action else stamp, pos + offset))
+        counts[cid] += 1
+    used = [action_stamp if action else stamp for action in set(layout.action)]
+    return min(used), max(used), counts
 
 
 def append_records(
