@@ -1,6 +1,9 @@
 """``bubblerob evaluate --robots N``: one policy on every robot of a world, per robot-episode.
 
-The options and their checks; the episodes are :mod:`policies.multi_evaluation`'s.
+The options and their checks; the episodes are :mod:`policies.multi_evaluation`'s. With a Nav
+env (``--env BubbleRobNav-v0``) every robot drives to its own goal and the table is the crowd
+one (:mod:`policies.crowd_metrics`: success, robot and obstacle hits, extra time and distance,
+speed).
 """
 
 from __future__ import annotations
@@ -31,10 +34,19 @@ def add_robots_arguments(parser: argparse.ArgumentParser) -> None:
         help="with --robots: free random start poses, or on a circle facing its centre "
         "(default: random)",
     )
+    parser.add_argument(
+        "--circle-jitter",
+        type=float,
+        default=0.0,
+        metavar="M",
+        help="with --scenario circle: each seed turns the circle by a random angle and moves each "
+        "robot along it by up to M metres (default 0: the same circle for every seed)",
+    )
 
 
 def run_robots(args: argparse.Namespace) -> int:
     """Evaluate ``args.policy`` on worlds of ``args.robots`` robots and print one table."""
+    from policies.crowd_metrics import format_crowd_table
     from policies.multi_evaluation import evaluate_robots, format_multi_table
 
     if args.robots < 1:
@@ -60,13 +72,18 @@ def run_robots(args: argparse.Namespace) -> int:
                     args.env,
                     args.env_kwargs,
                     progress=True,
+                    circle_jitter=args.circle_jitter,
                 )  # fmt: skip
             )
         except MissingExtraError as error:
             raise SystemExit(str(error)) from None
-        except ValueError as error:  # too many robots for the arena, a Nav env, a bad kwarg
+        except ValueError as error:  # too many robots, a bad env, a bad kwarg or jitter
             fail("evaluate", f"--robots {args.robots}: {error}")
-    print(format_multi_table(results, markdown=args.markdown))
+    crowd = [(r.policy, r.num_robots, r.scenario, r.crowd) for r in results]
+    if all(metrics is not None for *_, metrics in crowd):  # a Nav env: Long et al.'s metrics
+        print(format_crowd_table([(p, n, s, m) for p, n, s, m in crowd if m], args.markdown))
+    else:
+        print(format_multi_table(results, markdown=args.markdown))
     if args.per_episode is not None:
         records = {r.policy: list(r.per_robot) for r in results}
         args.per_episode.write_text(

@@ -10,6 +10,13 @@ within a world: read the intervals as a lower bound on the uncertainty).
 The policy is loaded for the single env of the same kwargs (``gym.make(env_id, **kwargs)``),
 whose spaces every agent of the world has (checked); it drives all robots in one batched
 ``predict`` a step, each robot its own row, so stateful controllers keep one state per robot.
+
+A Nav env id (``BubbleRobNav-v0``) gives every robot a goal (``parallel_env(task="nav")``; on the
+circle, the antipode of its start, in the arena grown to give room to pass, whose size the single
+env then gets too): a robot-episode succeeds when its robot reaches its goal untouched, and its
+record adds :func:`~policies.navigation_metrics.episode_record`'s fields, from which
+:mod:`policies.crowd_metrics` computes Long et al.'s extra time, extra distance and speed.
+``circle_jitter`` (m) makes each seed's circle its own (:mod:`bubblerob_env.multi.placement`).
 """
 
 from __future__ import annotations
@@ -22,7 +29,9 @@ import gymnasium as gym
 import numpy as np
 
 from bubblerob_env.extras import require_extra
+from policies.crowd_metrics import CrowdMetrics, crowd_metrics
 from policies.loading import load_policy
+from policies.navigation_metrics import episode_record
 from policies.observations import bubblerob_base
 from policies.protocol import wilson_interval
 
@@ -81,35 +90,61 @@ class MultiEvalResult:
         return float(np.dot(speeds, lengths) / lengths.sum())
 
     @property
+    def crowd(self) -> CrowdMetrics | None:
+        """The crowd-navigation metrics of a Nav world's robot-episodes (else None)."""
+        if not self.per_robot or "shortest" not in self.per_robot[0]:
+            return None
+        return crowd_metrics(self.per_robot)
+
+    @property
     def mean_length(self) -> float:
         """Mean robot-episode length in steps."""
         return float(np.mean([r["length"] for r in self.per_robot]))
 
 
-def world_env(num_robots: int, scenario: str, env_id: str, env_kwargs: dict[str, Any]) -> Any:
+_TASKS = {
+    "bubblerob_env.env:BubbleRobEnv": "wander",
+    "bubblerob_env.tasks.nav:BubbleRobNavEnv": "nav",
+}
+
+
+def world_env(
+    num_robots: int,
+    scenario: str,
+    env_id: str,
+    env_kwargs: dict[str, Any],
+    circle_jitter: float = 0.0,
+) -> Any:
     """``parallel_env`` of ``num_robots`` robots with the single env ``env_id``'s settings.
 
-    ``env_id`` is a robot's obstacle-avoidance env (``BubbleRob-v0``, ``PioneerP3DX-v0``); its
-    registered robot and time limit are used unless ``env_kwargs`` sets them.
+    ``env_id`` is a robot's obstacle-avoidance env (``BubbleRob-v0``, ``PioneerP3DX-v0``) or its
+    Nav task (``task="nav"``); its registered robot and time limit are used unless
+    ``env_kwargs`` sets them.
     """
     require_extra("multi", "evaluate --robots")
     from bubblerob_env.multi import parallel_env
 
     spec = gym.spec(env_id)
-    if spec.entry_point != "bubblerob_env.env:BubbleRobEnv":
+    task = _TASKS.get(str(spec.entry_point))
+    if task is None:
         raise ValueError(
-            f"--robots runs obstacle-avoidance envs (BubbleRob-v0, PioneerP3DX-v0), not {env_id!r}"
+            f"--robots runs BubbleRob-v0, PioneerP3DX-v0 and their Nav-v0 tasks, not {env_id!r}"
         )
     if scenario not in SCENARIOS:
         raise ValueError(f"scenario must be one of {list(SCENARIOS)}, got {scenario!r}")
     kwargs = {**spec.kwargs, **env_kwargs}
     kwargs.setdefault("max_episode_steps", spec.max_episode_steps or 1000)
-    return parallel_env(num_robots, scenario=scenario, **kwargs)
+    return parallel_env(
+        num_robots, scenario=scenario, task=task, circle_jitter=circle_jitter, **kwargs
+    )
 
 
 def _load_for_world(name: str, world: Any, env_id: str, env_kwargs: dict[str, Any]) -> Any:
-    """``name`` loaded for the single env, checked to take the world's per-agent spaces."""
-    single = gym.make(env_id, **env_kwargs)
+    """``name`` loaded for the single env, checked to take the world's per-agent spaces.
+
+    The single env gets the world's arena (grown on a Nav circle).
+    """
+    single = gym.make(env_id, **{**env_kwargs, "arena_size": world.config.arena_size})
     try:
         agent = world.possible_agents[0]
         for what in ("observation_space", "action_space"):
@@ -136,6 +171,7 @@ def run_world_episode(world: Any, policy: Any, seed: int, max_speed: float) -> l
     stays in its row and its action is dropped.
     """
     agents = list(world.possible_agents)
+    goals = world.goals  # None for task="wander"
     latest, infos = world.reset(seed=seed)
     records = {
         agent: {"seed": seed, "robot": agent, "succeeded": False, "collided_with": "",
@@ -160,6 +196,11 @@ def run_world_episode(world: Any, policy: Any, seed: int, max_speed: float) -> l
             if terminations[agent] or truncations[agent]:
                 record["succeeded"] = bool(info["is_success"])
                 record["collided_with"] = str(info.get("collided_with", ""))
+                if goals is not None:
+                    dt, radius = world.config.control_timestep, goals.settings.goal_radius
+                    record.update(
+                        episode_record(info, int(record["length"]), dt, max_speed, radius)
+                    )
     for record in records.values():
         record["speed"] /= max(record["length"], 1)
     return list(records.values())
@@ -174,10 +215,11 @@ def evaluate_robots(
     env_id: str = "BubbleRob-v0",
     env_kwargs: dict[str, Any] | None = None,
     progress: bool = False,
+    circle_jitter: float = 0.0,
 ) -> MultiEvalResult:
     """``episodes`` world episodes from seeds ``seed, seed + 1, ...``, one policy on every robot."""
     kwargs = dict(env_kwargs or {})
-    world = world_env(num_robots, scenario, env_id, kwargs)
+    world = world_env(num_robots, scenario, env_id, kwargs, circle_jitter)
     try:
         policy, max_speed = _load_for_world(policy_name, world, env_id, kwargs)
         seeds: Any = range(seed, seed + episodes)

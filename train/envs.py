@@ -5,7 +5,8 @@ default: with small, fast envs on a 2-core machine the inter-process round trips
 ``SubprocVecEnv`` cost more than stepping them here), ``subproc`` (one subprocess each) or
 ``batched`` (:class:`train.sb3_vec.BubbleRobSB3VecEnv`, the same episodes) or ``worlds``
 (:class:`train.worlds_vec.WorldsSB3VecEnv`: ``n_envs`` worlds of ``robots`` robots, a slot per
-robot, for one policy shared by all; evaluated on single-robot episodes) or ``warp``
+robot, for one policy shared by all; evaluated on single-robot episodes) or ``crowd`` (the
+same over the :data:`CROWD_WORLDS` mix, ``n_envs`` worlds of each; a Nav env id) or ``warp``
 (:class:`train.sb3_warp.WarpSB3VecEnv`: ``n_envs`` MuJoCo Warp worlds on Warp's default device,
 a GPU where there is one; evaluated on the CPU env, where the policy will run). The evaluation env
 has one env per validation episode (``train/validation.py``), seeded from the first validation
@@ -14,6 +15,7 @@ seed, and the same wrapper chain as training's.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 from policies.builtin import builtin_policy
@@ -24,6 +26,7 @@ from train.zoo import wrapper_class
 __all__ = [
     "DEFAULT_VEC_ENV",
     "VEC_ENVS",
+    "CROWD_WORLDS",
     "WORLDS_TASKS",
     "batch_wrapped",
     "batched_envs",
@@ -35,7 +38,7 @@ __all__ = [
     "worlds_envs",
 ]
 
-VEC_ENVS = ("dummy", "subproc", "batched", "worlds", "warp")
+VEC_ENVS = ("dummy", "subproc", "batched", "worlds", "crowd", "warp")
 DEFAULT_VEC_ENV = "dummy"
 """Step the envs in the training process: on 2 cores, faster than subprocesses for this env."""
 
@@ -69,8 +72,9 @@ def training_envs(
         # The same wrapper chain as training's: VecNormalize's statistics are synced by walking
         # both chains in step.
         eval_env = batched_envs(env_id, eval_episodes, VALIDATION.start, env_kwargs, spec)
-    elif vec_env == "worlds":  # the shared policy is evaluated driving one robot
-        envs = worlds_envs(env_id, count, robots, seed, env_kwargs, spec)
+    elif vec_env in ("worlds", "crowd"):  # the shared policy is evaluated driving one robot
+        robots_or_mix = robots if vec_env == "worlds" else CROWD_WORLDS
+        envs = worlds_envs(env_id, count, robots_or_mix, seed, env_kwargs, spec)
         eval_env = single_robot_eval_envs(env_id, eval_episodes, env_kwargs, spec)
     elif vec_env == "warp":  # evaluated on the CPU env, where the policy will run
         envs = warp_envs(env_id, count, seed, env_kwargs, spec)
@@ -167,10 +171,24 @@ WORLDS_TASKS = {
 """``--vec-env worlds``: the ``parallel_env`` task of each single env's entry point."""
 
 
+_CIRCLE = {"scenario": "circle", "circle_jitter": 0.1, "world_steps": 500, "num_obstacles": (0, 0)}
+CROWD_WORLDS = (
+    (4, _CIRCLE),
+    (8, _CIRCLE),
+    (12, _CIRCLE),
+    (20, _CIRCLE),
+    (8, {"scenario": "random"}),
+)
+"""``--vec-env crowd``: (robots, kwargs) of each group of ``n_envs`` worlds. Circle crossings
+of 4 to 20 robots, no obstacles (a seeded turn and 0.1 m jitter along the circle; redrawn every
+500 steps, 25 s, so that the crossing starts again, a robot that ends meanwhile restarting alone
+with a random goal) and random arenas of 8 robots among the obstacles."""
+
+
 def worlds_envs(
     env_id: str,
     num_worlds: int,
-    robots: int,
+    robots: int | Sequence[tuple[int, dict[str, Any]]],
     seed: int,
     env_kwargs: dict[str, Any],
     env_wrapper: Any = None,
@@ -194,7 +212,14 @@ def worlds_envs(
             "--vec-env worlds steps BubbleRob-v0, PioneerP3DX-v0 or their Nav-v0 tasks, "
             f"not {env_id!r}"
         )
-    envs: Any = WorldsSB3VecEnv(num_worlds, robots, task=task, **{**spec.kwargs, **env_kwargs})
+    kwargs = {"task": task, **spec.kwargs, **env_kwargs}
+    if isinstance(robots, int):
+        envs: Any = WorldsSB3VecEnv(num_worlds, robots, **kwargs)
+    else:  # a mix of groups (--vec-env crowd)
+        if task != "nav":
+            raise ValueError(f"--vec-env crowd steps a Nav env (BubbleRobNav-v0), not {env_id!r}")
+        groups = [(num_worlds, n, own) for n, own in robots]
+        envs = WorldsSB3VecEnv.mixed(groups, **kwargs)
     envs.seed(seed)
     return batch_wrapped(envs, env_id, env_kwargs, env_wrapper)
 

@@ -11,8 +11,9 @@ a new robot at a free pose of the same world, while the world's other robots dri
 slot is a sequence of independent robot-episodes, as SB3 expects of a ``VecEnv`` slot.
 
 ``seed(s)`` seeds world ``w`` with ``s + w`` at the next ``reset``. Used by
-``python -m train --vec-env worlds --robots N`` (``n_envs`` worlds). Needs the ``train`` and
-``multi`` extras.
+``python -m train --vec-env worlds --robots N`` (``n_envs`` worlds). :meth:`WorldsSB3VecEnv.mixed`
+puts groups of worlds of different sizes and scenarios side by side, their slots one after the
+other (``--vec-env crowd``). Needs the ``train`` and ``multi`` extras.
 """
 
 from __future__ import annotations
@@ -44,47 +45,109 @@ def split_infos(info: dict[str, Any], count: int) -> list[dict[str, Any]]:
     return infos
 
 
+def _joined(parts: list[Any]) -> Any:
+    """The groups' batched observations as one batch."""
+    if len(parts) == 1:
+        return parts[0]
+    if isinstance(parts[0], dict):
+        return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
+    return np.concatenate(parts)
+
+
+def _finals(info: dict[str, Any], done: np.ndarray, count: int) -> list[FinalStep | None]:
+    """Each slot's last observation and ``info`` where its episode ended, else None."""
+    finals: list[FinalStep | None] = [None] * count
+    ended = np.flatnonzero(done).tolist()
+    if ended:
+        final_infos = split_infos(info["final_info"], count)
+        for i in ended:
+            finals[i] = (info["final_obs"][i], final_infos[i])
+    return finals
+
+
 class WorldsSB3VecEnv(SameStepSB3VecEnv):
     """``num_worlds`` worlds of ``num_robots`` robots as ``num_worlds * num_robots`` SB3 slots.
 
     Args:
         num_worlds: Worlds.
         num_robots: Robots in each world.
+        groups: Groups of worlds made already (:meth:`mixed`), instead of the above.
         **kwargs: :class:`~bubblerob_env.multi.vector.WorldsVectorEnv`'s (``robot``,
-            ``scenario``, ``num_threads``, ``max_episode_steps``, the single env's arguments).
+            ``scenario``, ``task``, ``num_threads``, ``max_episode_steps``, the single env's
+            arguments).
     """
 
-    def __init__(self, num_worlds: int, num_robots: int, **kwargs: Any) -> None:
-        self.venv = WorldsVectorEnv(num_worlds, num_robots, **kwargs)
+    def __init__(
+        self,
+        num_worlds: int,
+        num_robots: int,
+        *,
+        groups: Sequence[WorldsVectorEnv] = (),
+        **kwargs: Any,
+    ) -> None:
+        venvs = list(groups) or [WorldsVectorEnv(num_worlds, num_robots, **kwargs)]
+        self.venvs = venvs
+        self.venv = venvs[0]
+        """The (first) group of worlds: its attributes are the adapter's."""
         self.render_mode = None
+        # Groups of another arena differ only in the goal distance's bound: the first's space.
         super().__init__(
-            self.venv.num_envs, self.venv.single_observation_space, self.venv.single_action_space
+            sum(v.num_envs for v in venvs),
+            self.venv.single_observation_space,
+            self.venv.single_action_space,
         )
-        self.num_worlds, self.num_robots = num_worlds, num_robots
+        self.num_worlds = sum(v.num_worlds for v in venvs)
+        self.num_robots = num_robots
+
+    @classmethod
+    def mixed(cls, groups: Sequence[tuple[int, int, dict[str, Any]]], **kwargs: Any) -> Any:
+        """Groups of ``(num_worlds, num_robots, their own kwargs)`` worlds, slots in that order.
+
+        ``kwargs``: every group's. A policy shared by all robots learns from all of them.
+        """
+        venvs = [WorldsVectorEnv(m, n, **{**kwargs, **own}) for m, n, own in groups]
+        return cls(0, 0, groups=venvs)
 
     def reset_batch(
         self, seeds: list[int | None], options: list[dict[str, Any]]
     ) -> tuple[VecEnvObs, list[dict[str, Any]]]:
-        """Reset every world; world ``w`` seeded ``s + w`` after :meth:`seed` ``(s)``."""
-        obs, info = self.venv.reset(seed=seeds[0] if seeds else None)
-        return obs, split_infos(info, self.num_envs)
+        """Reset every world; world ``w`` (counted over the groups) seeded ``s + w``."""
+        first = seeds[0] if seeds else None
+        parts, infos, offset = [], [], 0
+        for venv in self.venvs:
+            obs, info = venv.reset(seed=None if first is None else first + offset)
+            offset += venv.num_worlds
+            parts.append(obs)
+            infos += split_infos(info, venv.num_envs)
+        return _joined(parts), infos
 
     def step_batch(self, actions: np.ndarray) -> BatchStep:
         """Step every world; an ended slot's robot already replaced by a new one."""
-        obs, rewards, terminated, truncated, info = self.venv.step(
-            actions.reshape(self.num_envs, 2)
+        actions = actions.reshape(self.num_envs, 2)
+        parts, infos, finals, start = [], [], [], 0
+        rewards, terminated, truncated = [], [], []
+        for venv in self.venvs:
+            obs, reward, ends, cuts, info = venv.step(actions[start : start + venv.num_envs])
+            start += venv.num_envs
+            parts.append(obs)
+            rewards.append(reward)
+            terminated.append(ends)
+            truncated.append(cuts)
+            infos += split_infos(info, venv.num_envs)
+            finals += _finals(info, ends | cuts, venv.num_envs)
+        return (
+            _joined(parts),
+            np.concatenate(rewards),
+            np.concatenate(terminated),
+            np.concatenate(truncated),
+            infos,
+            finals,
         )
-        ended = np.flatnonzero(terminated | truncated).tolist()
-        finals: list[FinalStep | None] = [None] * self.num_envs
-        if ended:
-            final_infos = split_infos(info["final_info"], self.num_envs)
-            for i in ended:
-                finals[i] = (info["final_obs"][i], final_infos[i])
-        return obs, rewards, terminated, truncated, split_infos(info, self.num_envs), finals
 
     def close(self) -> None:
         """Stop the worlds' threads."""
-        self.venv.close()
+        for venv in self.venvs:
+            venv.close()
 
     def get_images(self) -> Sequence[np.ndarray | None]:
         """No rendering: the worlds have no camera (``parallel_env`` renders)."""

@@ -33,7 +33,7 @@ from bubblerob_env.core.kernel import OUT
 from bubblerob_env.core.worlds import WorldBatch
 from bubblerob_env.infos import robot_info
 from bubblerob_env.multi.goals import WorldGoals, task_config, task_settings
-from bubblerob_env.multi.placement import check_fits, sample_world
+from bubblerob_env.multi.placement import check_circle_jitter, check_fits, sample_world
 from bubblerob_env.multi.scene import WorldScene, agent_name, partner_name
 from bubblerob_env.odometry import Odometry, draw_slip
 from bubblerob_env.rendering import EnvViews
@@ -59,7 +59,9 @@ def parallel_env(
 
     ``scenario``: ``"random"`` free start poses, ``"circle"`` on a circle facing its centre;
     ``task``: ``"wander"`` (``BubbleRob-v0``'s) or ``"nav"`` (each robot to its goal, with
-    ``BubbleRobNav-v0``'s arguments: ``goal_radius`` ...); ``kwargs``: the single env's
+    ``BubbleRobNav-v0``'s arguments: ``goal_radius`` ...); ``circle_jitter`` (m, default 0): a
+    seed turns the circle and moves each robot along it by up to that arc
+    (:mod:`~bubblerob_env.multi.placement`); ``kwargs``: the single env's
     (``gym.make("BubbleRob-v0", **kwargs)``).
     """
     return MultiRobotEnv(num_robots, robot, scenario, max_episode_steps, task, **kwargs)
@@ -78,6 +80,7 @@ class MultiRobotEnv(ParallelEnv[str, Observation, NDArray[np.float32]]):  # type
         scenario: str = "random",
         max_episode_steps: int = 1000,
         task: str = "wander",
+        circle_jitter: float = 0.0,
         **kwargs: Any,
     ) -> None:
         settings = task_settings(task, kwargs)
@@ -93,6 +96,7 @@ class MultiRobotEnv(ParallelEnv[str, Observation, NDArray[np.float32]]):  # type
             )
         config = task_config(settings, scenario, num_robots, kwargs, robot)  # room to pass
         check_fits(config, num_robots, scenario)
+        self.circle_jitter = check_circle_jitter(config, num_robots, scenario, circle_jitter)
         self.config = config
         self.task = task
         self.goals = None if settings is None else WorldGoals(settings, config, num_robots)
@@ -206,7 +210,9 @@ class MultiRobotEnv(ParallelEnv[str, Observation, NDArray[np.float32]]):  # type
             self.layout = scene.place_layout(rng)  # exactly the single env's reset
             drawn = [self.layout.start_pose]
         else:
-            self.layout, drawn = sample_world(rng, self.config, self.num_robots, self.scenario)
+            self.layout, drawn = sample_world(
+                rng, self.config, self.num_robots, self.scenario, self.circle_jitter
+            )
         if given:
             poses = drawn if poses is None else _checked_poses(poses, self.num_robots)
             obstacles = self.layout.obstacles if obstacles is None else tuple(obstacles)

@@ -4,20 +4,25 @@ Every robot starts ``start_clearance`` m (and one robot radius) clear of the wal
 obstacle and of every other robot's bounding circle, so no start touches anything.
 ``scenario="random"`` draws the poses uniformly (robot 0's exactly as the single env draws its
 start, so one robot gives the single env's episodes), ``"circle"`` puts the robots evenly on the
-largest circle that keeps that clearance from the walls, each facing the centre. The obstacles
-are the single env's layout around robot 0, less any that would crowd another robot.
+largest circle that keeps that clearance from the walls, each facing the centre: one world for
+every seed. With ``circle_jitter`` (m) a seed turns the whole circle by a uniform angle and moves
+each robot along it by up to that arc, as crowd-navigation benchmarks perturb their circle
+crossings (CrowdNav's circle crossing jitters positions; Long et al. evaluate one fixed circle).
+The obstacles are the single env's layout around robot 0, less any that would crowd another
+robot.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
 from bubblerob_env.arena import ArenaLayout, Obstacle, colour_obstacles, sample_layout
 from bubblerob_env.config import EnvConfig
 
-__all__ = ["SCENARIOS", "check_fits", "free_pose", "sample_world"]
+__all__ = ["SCENARIOS", "check_circle_jitter", "check_fits", "free_pose", "sample_world"]
 
 SCENARIOS = ("random", "circle")
 """Where a reset puts the robots: uniformly at free poses, or on a circle facing its centre."""
@@ -111,22 +116,53 @@ def _grid_poses(rng: np.random.Generator, config: EnvConfig, num_robots: int) ->
     return [(*cells[int(p)], float(yaw)) for p, yaw in zip(picks, yaws, strict=True)]
 
 
-def _circle_poses(config: EnvConfig, num_robots: int) -> list[Pose]:
+def check_circle_jitter(config: EnvConfig, num_robots: int, scenario: str, jitter: Any) -> float:
+    """``circle_jitter`` in metres of arc, or one ``ValueError`` line.
+
+    At most what keeps two neighbours moved towards each other ``2r + start_clearance`` apart.
+    """
+    if isinstance(jitter, bool) or not isinstance(jitter, (int, float)) or not jitter >= 0:
+        raise ValueError(f"circle_jitter must be a number of metres >= 0, got {jitter!r}")
+    if jitter and scenario != "circle":
+        raise ValueError(f"circle_jitter moves the robots of scenario='circle', not {scenario!r}")
     radius = config.arena_size / 2 - _keep_out(config)
+    if jitter and num_robots > 1:
+        half_gap = math.pi / num_robots - math.asin(min(1.0, _spacing(config) / (2 * radius)))
+        most = max(0.0, half_gap * radius)
+        if jitter > most:
+            raise ValueError(
+                f"circle_jitter {jitter!r} m would bring {num_robots} robots on a circle of "
+                f"radius {radius:.2f} m closer than {_spacing(config):.2f} m: at most {most:.3f}"
+            )
+    return float(jitter)
+
+
+def _circle_poses(
+    config: EnvConfig, num_robots: int, rng: np.random.Generator, jitter: float
+) -> list[Pose]:
+    radius = config.arena_size / 2 - _keep_out(config)
+    turn, shifts = 0.0, np.zeros(num_robots)
+    if jitter > 0:  # drawn only then: a jitter-free circle draws nothing, as before
+        turn = float(rng.uniform(0.0, 2 * math.pi))
+        shifts = rng.uniform(-jitter, jitter, size=num_robots) / radius
     poses = []
     for k in range(num_robots):
-        angle = 2 * math.pi * k / num_robots
+        angle = turn + 2 * math.pi * k / num_robots + float(shifts[k])
         facing = math.atan2(-math.sin(angle), -math.cos(angle))
         poses.append((radius * math.cos(angle), radius * math.sin(angle), facing))
     return poses
 
 
 def sample_world(
-    rng: np.random.Generator, config: EnvConfig, num_robots: int, scenario: str
+    rng: np.random.Generator,
+    config: EnvConfig,
+    num_robots: int,
+    scenario: str,
+    circle_jitter: float = 0.0,
 ) -> tuple[ArenaLayout, list[Pose]]:
     """The obstacles (robot 0's start in the layout) and every robot's start pose."""
     if scenario == "circle":
-        poses = _circle_poses(config, num_robots)
+        poses = _circle_poses(config, num_robots, rng, circle_jitter)
     else:
         poses = _random_poses(rng, config, num_robots)
     layout = sample_layout(

@@ -46,7 +46,12 @@ from bubblerob_env.core.worlds import WorldBatch
 from bubblerob_env.infos import batched_step_info, robot_info, robot_step_info
 from bubblerob_env.multi.goals import task_config, task_settings
 from bubblerob_env.multi.nav_slots import SlotGoals, StepParts
-from bubblerob_env.multi.placement import check_fits, free_pose, sample_world
+from bubblerob_env.multi.placement import (
+    check_circle_jitter,
+    check_fits,
+    free_pose,
+    sample_world,
+)
 from bubblerob_env.multi.scene import WorldScene, partner_name
 from bubblerob_env.odometry import Odometry, draw_slip
 from bubblerob_env.tasks.nav_rules import spaces_with_goal
@@ -68,11 +73,14 @@ class WorldsVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
     Args:
         num_worlds: Worlds (each its own ``MjModel`` copy and ``MjData``).
         num_robots: Robots in each world.
-        robot, scenario, task: as :func:`~bubblerob_env.multi.parallel_env`'s (``task="nav"``
-            takes the Nav arguments, ``goal_radius`` ..., among ``kwargs``).
+        robot, scenario, task, circle_jitter: as :func:`~bubblerob_env.multi.parallel_env`'s
+            (``task="nav"`` takes the Nav arguments, ``goal_radius`` ..., among ``kwargs``).
         num_threads: Threads stepping the worlds (default: the usable cores, at most the
             worlds). Results do not depend on it.
         max_episode_steps: Each slot's time limit in steps.
+        world_steps: Draw each world anew every this many steps, every slot of it truncated
+            (default None: never). With ``scenario="circle"`` the crossing then starts again,
+            as a restarted slot alone starts at a free pose with a fresh goal.
         **kwargs: The single env's arguments (no camera, no rendering).
     """
 
@@ -86,8 +94,10 @@ class WorldsVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
         robot: str = "bubblerob",
         scenario: str = "random",
         task: str = "wander",
+        circle_jitter: float = 0.0,
         num_threads: int | None = None,
         max_episode_steps: int = 1000,
+        world_steps: int | None = None,
         **kwargs: Any,
     ) -> None:
         for name, value in (("num_worlds", num_worlds), ("num_robots", num_robots)):
@@ -98,8 +108,14 @@ class WorldsVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
         settings = task_settings(task, kwargs)
         config = task_config(settings, scenario, num_robots, kwargs, robot)
         check_fits(config, num_robots, scenario)
+        self.circle_jitter = check_circle_jitter(config, num_robots, scenario, circle_jitter)
         self.config, self.scenario, self.task = config, scenario, task
         self.max_episode_steps = max_episode_steps
+        if world_steps is not None and (
+            isinstance(world_steps, bool) or not isinstance(world_steps, int) or world_steps < 1
+        ):
+            raise ValueError(f"world_steps must be None or an integer >= 1, got {world_steps!r}")
+        self.world_steps = world_steps
         first = WorldScene(config, num_robots, WORLD_ARENA_MEMORY * num_robots)
         self.worlds = [first, *(first.spawn() for _ in range(num_worlds - 1))]
         self.num_worlds, self.num_robots = num_worlds, num_robots
@@ -139,6 +155,7 @@ class WorldsVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
             else None
         )
         self._elapsed = np.zeros(self.num_envs, dtype=np.int64)
+        self._world_elapsed = np.zeros(num_worlds, dtype=np.int64)
         self._collided = np.zeros(self.num_envs, dtype=bool)
         self._clipped = np.zeros(self.num_envs, dtype=np.int64)
         self._ready = False
@@ -170,7 +187,9 @@ class WorldsVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
         world, rng = self.worlds[w], self._rngs[w]
         scene = world.scene
         for _ in range(_WORLD_TRIES):  # as parallel_env's reset: the same world for a seed
-            layout, poses = sample_world(rng, self.config, self.num_robots, self.scenario)
+            layout, poses = sample_world(
+                rng, self.config, self.num_robots, self.scenario, self.circle_jitter
+            )
             if self.goals is None:
                 break
             with_goals = self.goals.draw(w, rng, layout, poses, self.scenario)
@@ -186,6 +205,7 @@ class WorldsVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
             world.place_robot(k, pose)
         mujoco.mj_forward(scene.model, scene.data)
         self._start(self._rows(w), w)
+        self._world_elapsed[w] = 0
         if self.goals is not None:
             self.goals.begin(self._rows(w).tolist(), self.batch.core.out)
 
@@ -253,6 +273,12 @@ class WorldsVectorEnv(VectorEnv[Any, NDArray[np.float32], NDArray[Any]]):
         rewards = out[:, _REWARD].copy()
         terminated = collision & self.config.terminate_on_collision
         truncated = self._elapsed >= self.max_episode_steps
+        self._world_elapsed += 1
+        if self.world_steps is not None:
+            redrawn = np.flatnonzero(self._world_elapsed >= self.world_steps).tolist()
+            for w in redrawn:
+                truncated[self._rows(w)] = True
+            diverged_worlds = sorted({*diverged_worlds, *redrawn})
         truncated[list(diverged)] = True
         task: tuple[StepParts, NDArray[np.bool_]] | None = None
         if self.goals is not None:  # before any restart moves a robot

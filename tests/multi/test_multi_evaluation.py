@@ -73,7 +73,7 @@ def test_evaluate_robots_prints_the_table_and_writes_each_robot_episode(
     [
         (["--robots", "0"], "--robots must be >= 1, got 0"),
         (["--robots", "80"], "--robots 80: num_robots=80 do not fit"),
-        (["--robots", "2", "--env", "BubbleRobNav-v0", "--policy", "navigator"], "not 'Bubble"),
+        (["--robots", "2", "--circle-jitter", "0.1"], "circle_jitter moves the robots of"),
         (["--robots", "2", "--video", "x.gif"], "not with --video"),
     ],
 )

@@ -176,3 +176,33 @@ def test_one_robot_worlds_first_episodes_are_the_single_nav_envs_step_for_step()
         if not any(live):
             return
     raise AssertionError("an episode outlived its time limit")
+
+
+def test_world_steps_starts_the_crossing_again_and_crowd_groups_keep_their_slots() -> None:
+    from train.worlds_vec import WorldsSB3VecEnv
+
+    circle: dict[str, Any] = {"scenario": "circle", "circle_jitter": 0.1, "world_steps": 30}
+    kwargs: dict[str, Any] = {"task": "nav", **FAST}
+    mixed = WorldsSB3VecEnv.mixed([(1, 4, circle), (2, 2, {})], **kwargs)
+    alone = [WorldsVectorEnv(1, 4, **circle, **kwargs), WorldsVectorEnv(2, 2, **kwargs)]
+    mixed.seed(3)
+    obs: Any = mixed.reset()
+    firsts: list[Any] = [alone[0].reset(seed=3)[0], alone[1].reset(seed=4)[0]]  # seed + w
+    np.testing.assert_array_equal(obs["laser"], np.concatenate([f["laser"] for f in firsts]))
+    circle_radius = alone[0].config.arena_size / 2 - RADIUS - CLEARANCE
+    rng = np.random.default_rng(0)
+    for step in range(1, 31):
+        actions = rng.uniform(-0.3, 0.3, (8, 2)).astype(np.float32)
+        obs, rewards, dones, infos = mixed.step(actions)
+        own: list[Any] = [alone[0].step(actions[:4]), alone[1].step(actions[4:])]
+        expected = np.concatenate([o[1] for o in own]).astype(rewards.dtype)  # SB3's dtype
+        np.testing.assert_array_equal(rewards, expected)
+        np.testing.assert_array_equal(obs["goal"], np.concatenate([o[0]["goal"] for o in own]))
+        if step < 30:
+            assert not dones[:4].any()
+    # Step 30: the circle world is drawn anew, every robot truncated, back on a new circle.
+    assert dones[:4].all() and all(infos[i]["TimeLimit.truncated"] for i in range(4))
+    # The new episodes' first readings: the antipode, straight ahead, across the circle.
+    np.testing.assert_allclose(obs["goal"][:4, 0], 2 * circle_radius, atol=4e-3)
+    np.testing.assert_allclose(obs["goal"][:4, 1], 0.0, atol=1e-3)
+    mixed.close()
