@@ -2,6 +2,8 @@
 
 Usage: ``python bench/warp_speed.py [--device cuda:0] [--sizes 1024,4096,16384,65536]
 [--steps 50] [--json FILE]`` (prints Markdown). Needs the ``[warp]`` extra.
+``python bench/warp_speed.py --split --sizes 65536``: where the floor's time goes (physics
+alone, the laser alone) and physics under MuJoCo Warp's sweep-and-prune broadphases.
 ``python bench/warp_speed.py --resets 65536``: only the host's part of a seeded reset of that many
 worlds (the arenas' table rows), by the numba draw and by the CPU env's own placement seed by seed
 (as before issue #41), and whether the two agree on every row.
@@ -19,12 +21,14 @@ from __future__ import annotations
 
 import argparse
 import datetime
+import functools
 import json
 import os
 import platform
 import time
 from typing import Any
 
+import mujoco_warp as mjw
 import numpy as np
 import warp as wp
 from gymnasium.utils import seeding
@@ -69,6 +73,33 @@ def _warp_rows(n: int, steps: int, device: str | None) -> dict[str, float]:
         "floor": _rate(floor, n, steps),
         "reset_s": reset_s,
     }
+
+
+def _split_rows(n: int, steps: int, device: str | None) -> list[str]:
+    """Where the floor's time goes at ``n`` worlds: physics alone, the laser alone, and
+    physics under MuJoCo Warp's other broadphases (sweep and prune), each its own env."""
+    rows = []
+    for name, broadphase in (
+        ("nxn (ours)", None),
+        ("sap_tile", mjw.BroadphaseType.SAP_TILE),
+        ("sap_segmented", mjw.BroadphaseType.SAP_SEGMENTED),
+    ):
+        env = WarpVectorEnv(n, device=device, max_episode_steps=1000)
+        env.reset(seed=0)
+        worlds = env.worlds
+        if broadphase is not None:
+            worlds.model.opt.broadphase = broadphase
+        still = np.zeros(n, dtype=bool)
+        physics = _rate(worlds.physics, n, steps)
+        sense = _rate(functools.partial(worlds.sense, active=None, resetting=still), n, steps)
+        model = worlds.model
+        rows.append(
+            f"| {n} | {name} | {physics:,.0f} | {sense:,.0f} | "
+            f"{1 / (1 / physics + 1 / sense):,.0f} | ngeom {model.ngeom}, "
+            f"substeps {worlds.substeps}, rays {worlds.nray} |"
+        )
+        env.close()
+    return rows
 
 
 def _cpu_batch(steps: int) -> float:
@@ -122,7 +153,22 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=50, help="timed steps per row")
     parser.add_argument("--json", default=None, help="also write the numbers to this file")
     parser.add_argument("--resets", type=int, help="only time the rows of this many seeds")
+    parser.add_argument(
+        "--split", action="store_true", help="only split the floor: physics, laser, broadphases"
+    )
     args = parser.parse_args()
+    if args.split:
+        device = wp.get_device(args.device)
+        print(
+            f"# MuJoCo Warp floor split, {datetime.datetime.now(datetime.UTC):%Y-%m-%d %H:%M} UTC"
+        )
+        print(f"device: {device.alias} ({device.name}); load {os.getloadavg()[0]:.1f}\n")
+        print("| N | broadphase | physics only | laser only | both | model |")
+        print("|---|---|---|---|---|---|")
+        for n in (int(size) for size in args.sizes.split(",")):
+            for row in _split_rows(n, args.steps, args.device):
+                print(row, flush=True)
+        return
     if args.resets:
         print(
             f"# seeded reset's host part, {datetime.datetime.now(datetime.UTC):%Y-%m-%d %H:%M} UTC"
