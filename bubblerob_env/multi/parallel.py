@@ -97,6 +97,8 @@ class MultiRobotEnv(ParallelEnv[str, Observation, NDArray[np.float32]]):  # type
         config = task_config(settings, scenario, num_robots, kwargs, robot)  # room to pass
         check_fits(config, num_robots, scenario)
         self.circle_jitter = check_circle_jitter(config, num_robots, scenario, circle_jitter)
+        self.robot_kwargs = {**kwargs, "robot": robot, "arena_size": config.arena_size}
+        """One robot's single-env arguments (``BubbleRob-v0``'s; the world's arena)."""
         self.config = config
         self.task = task
         self.goals = None if settings is None else WorldGoals(settings, config, num_robots)
