@@ -10,10 +10,16 @@ other hostile input (bad values, bad files).
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 from typing import Any
 
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+
+from output_cases import output_cases  # noqa: E402 - bench/hostile/output_cases.py
+from teleop_cases import teleop_cases  # noqa: E402 - bench/hostile/teleop_cases.py
+
 NAN, INF = "float('nan')", "float('inf')"
 
 # Each env kwarg and values a hostile user passes that must be refused naming it.
@@ -654,6 +660,8 @@ def main() -> None:
         *bag_cases(),
         *bag_reader_cases(),
         *policy_cases(),
+        *output_cases(),
+        *teleop_cases(),
     ]
     ids = [c["id"] for c in cases]
     assert len(ids) == len(set(ids)), "case ids must be unique"

@@ -12,6 +12,10 @@ Each case (``cases.json``, written by ``make_cases.py``) is a ``bubblerob`` comm
 - ``ok``: exit 0, ``stdout_has`` printed and ``stdout_lacks`` not (a snippet: no failed assert);
 - ``na``: a figure that cannot be computed: ``n/a`` printed, exit non-zero.
 
+A case may write ``earlier`` files (path: text) into its folder first, as an earlier run left
+them: each ``unchanged`` one must still hold its text afterwards, each ``replaced`` one must not
+(``absent`` ones must be gone); otherwise the case is silently wrong.
+
 Verdicts: ``ok`` (as promised), ``silently wrong`` (exit 0 where a refusal or ``n/a`` was due, or
 a check of the output failed), ``bad refusal`` (refused, but not in one line, or with another exit
 status), ``refused valid`` (a valid case refused), ``traceback``, ``crash`` (killed by a
@@ -87,6 +91,17 @@ def _refusal_lines(case: dict[str, Any], stderr: str) -> list[str]:
     return [line for line in stderr.splitlines() if line.startswith(prefix)]
 
 
+def _earlier_files_wrong(case: dict[str, Any], tmp: Path) -> list[str]:
+    """The ``unchanged`` files that changed and the ``replaced`` ones that did not."""
+    earlier = {path: text.encode() for path, text in case.get("earlier", {}).items()}
+
+    def holds(path: str) -> bool:
+        return (tmp / path).is_file() and (tmp / path).read_bytes() == earlier[path]
+
+    wrong = [path for path in case.get("unchanged", []) if not holds(path)]
+    return wrong + [path for path in case.get("replaced", []) if holds(path)]
+
+
 def classify(case: dict[str, Any], rc: int | None, out: str, err: str, tmp: Path) -> str:
     """The case's verdict (see the module docstring)."""
     if rc is None:
@@ -104,6 +119,7 @@ def classify(case: dict[str, Any], rc: int | None, out: str, err: str, tmp: Path
         wrong = [s for s in case.get("stdout_has", []) if s not in out]
         wrong += [s for s in case.get("stdout_lacks", []) if s in out]
         wrong += [p for p in case.get("absent", []) if (tmp / p).exists()]
+        wrong += _earlier_files_wrong(case, tmp)
         return "silently wrong" if wrong else "ok"
     if rc == 0:
         return "silently wrong"
@@ -114,13 +130,13 @@ def classify(case: dict[str, Any], rc: int | None, out: str, err: str, tmp: Path
         return "bad refusal"
     if any(s not in lines[0] for s in case.get("stderr_has", [])):
         return "bad refusal"
-    if any((tmp / p).exists() for p in case.get("absent", [])):
+    if any((tmp / p).exists() for p in case.get("absent", [])) or _earlier_files_wrong(case, tmp):
         return "silently wrong"
     return "ok"
 
 
 def _folder(case: dict[str, Any], work: Path) -> Path:
-    tmp = work / "cases" / case["id"]
+    tmp = work / "cases" / str(case["id"])
     if tmp.exists():
         subprocess.run(["rm", "-rf", str(tmp)], check=True)
     tmp.mkdir(parents=True)
@@ -141,6 +157,9 @@ def _result(case: dict[str, Any], rc: int | None, out: str, err: str, tmp: Path)
 def run_case(case: dict[str, Any], fixtures: dict[str, str], work: Path) -> dict[str, Any]:
     """Run one command-line case in a fresh folder under ``work``; its verdict and output."""
     tmp = _folder(case, work)
+    for path, text in case.get("earlier", {}).items():  # what an earlier run left there
+        (tmp / path).parent.mkdir(parents=True, exist_ok=True)
+        (tmp / path).write_text(text)
     rc, out, err = _launch(case, _command(case, fixtures, tmp), tmp)
     return _result(case, rc, out, err, tmp)
 
