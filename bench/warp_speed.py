@@ -76,8 +76,9 @@ def _warp_rows(n: int, steps: int, device: str | None) -> dict[str, float]:
 
 
 def _split_rows(n: int, steps: int, device: str | None) -> list[str]:
-    """Where the floor's time goes at ``n`` worlds: physics alone, the laser alone, and
-    physics under MuJoCo Warp's other broadphases (sweep and prune), each its own env."""
+    """Where the floor's time goes at ``n`` worlds: physics alone (under each of MuJoCo Warp's
+    broadphases, each its own env), the env's laser and readings (``sense``: the culled cast),
+    and ``mujoco_warp.rays`` over every geom for the same rays (what the culled cast replaced)."""
     rows = []
     for name, broadphase in (
         ("nxn (ours)", None),
@@ -89,15 +90,33 @@ def _split_rows(n: int, steps: int, device: str | None) -> list[str]:
         worlds = env.worlds
         if broadphase is not None:
             worlds.model.opt.broadphase = broadphase
-        still = np.zeros(n, dtype=bool)
-        physics = _rate(worlds.physics, n, steps)
-        sense = _rate(functools.partial(worlds.sense, active=None, resetting=still), n, steps)
-        model = worlds.model
         rows.append(
-            f"| {n} | {name} | {physics:,.0f} | {sense:,.0f} | "
-            f"{1 / (1 / physics + 1 / sense):,.0f} | ngeom {model.ngeom}, "
-            f"substeps {worlds.substeps}, rays {worlds.nray} |"
+            f"| {n} | physics, broadphase {name} | {_rate(worlds.physics, n, steps):,.0f} |"
         )
+        if broadphase is None:
+            still = np.zeros(n, dtype=bool)
+            sense = functools.partial(worlds.sense, active=None, resetting=still)
+            rows.append(
+                f"| {n} | laser + readings (env's culled cast) | {_rate(sense, n, steps):,.0f} |"
+            )
+            with wp.ScopedDevice(worlds.device):
+                out = wp.zeros_like(worlds.dist)
+                rays = functools.partial(
+                    mjw.rays,
+                    worlds.model,
+                    worlds.data,
+                    worlds.pnt,
+                    worlds.vec,
+                    worlds.geomgroup,
+                    True,
+                    worlds.bodyexclude,
+                    out,
+                    worlds.geomid,
+                    worlds.normal,
+                )
+                rows.append(
+                    f"| {n} | mujoco_warp.rays alone (every geom) | {_rate(rays, n, steps):,.0f} |"
+                )
         env.close()
     return rows
 
@@ -154,7 +173,9 @@ def main() -> None:
     parser.add_argument("--json", default=None, help="also write the numbers to this file")
     parser.add_argument("--resets", type=int, help="only time the rows of this many seeds")
     parser.add_argument(
-        "--split", action="store_true", help="only split the floor: physics, laser, broadphases"
+        "--split",
+        action="store_true",
+        help="only split the floor: physics (each broadphase), the culled laser, mujoco_warp.rays",
     )
     args = parser.parse_args()
     if args.split:
@@ -163,8 +184,8 @@ def main() -> None:
             f"# MuJoCo Warp floor split, {datetime.datetime.now(datetime.UTC):%Y-%m-%d %H:%M} UTC"
         )
         print(f"device: {device.alias} ({device.name}); load {os.getloadavg()[0]:.1f}\n")
-        print("| N | broadphase | physics only | laser only | both | model |")
-        print("|---|---|---|---|---|---|")
+        print("| N | part | robot-steps/s |")
+        print("|---|---|---|")
         for n in (int(size) for size in args.sizes.split(",")):
             for row in _split_rows(n, args.steps, args.device):
                 print(row, flush=True)

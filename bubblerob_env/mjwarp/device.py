@@ -26,6 +26,7 @@ from bubblerob_env.batch.common import checked_actions
 from bubblerob_env.core.batch import kernel_settings
 from bubblerob_env.core.kernel import CFG, ICFG, OUT, OUT_SIZE
 from bubblerob_env.mjwarp import kernels as K
+from bubblerob_env.mjwarp.laser import culled_laser, obstacle_geoms
 from bubblerob_env.mjwarp.layouts import LayoutTable, slot_geoms
 from bubblerob_env.scene import Scene
 
@@ -154,7 +155,10 @@ class DeviceWorlds:
     def _rays(self, spec: Any, groups: NDArray[np.int32]) -> None:
         nray = max(self.nray, 1)
         local = np.zeros((nray, 3), dtype=np.float32)
+        self.laser_geoms: wp.array[Any] = wp.array(obstacle_geoms(groups == names.OBSTACLE_GROUP))
+        self.fan = (0.0, 1.0, 1)  # angle_min, increment, full circle: the culling's ray indices
         if spec is not None:
+            self.fan = (spec.angle_min, spec.angle_increment, int(spec.full_circle))
             angles = spec.angles()
             local[:, 0], local[:, 1] = np.cos(angles), np.sin(angles)
         self.local_dirs: wp.array[Any] = wp.array(local, dtype=wp.vec3)
@@ -279,17 +283,23 @@ class DeviceWorlds:
                 inputs=[d.site_xpos, d.site_xmat, s.laser_site, self.local_dirs],
                 outputs=[self.pnt, self.vec],
             )
-            mjw.rays(
-                m,
-                d,
-                self.pnt,
-                self.vec,
-                self.geomgroup,
-                True,
-                self.bodyexclude,
-                self.dist,
-                self.geomid,
-                self.normal,
+            self.dist.fill_(math.inf)
+            wp.launch(
+                culled_laser,
+                (n, self.laser_geoms.shape[0]),
+                inputs=[
+                    self.laser_geoms,
+                    m.geom_type,
+                    m.geom_size,
+                    d.geom_xpos,
+                    d.geom_xmat,
+                    d.site_xmat,
+                    s.laser_site,
+                    self.pnt,
+                    self.vec,
+                    *self.fan,
+                ],
+                outputs=[self.dist],
             )
             self.nearest.fill_(math.inf)
             wp.launch(
@@ -315,6 +325,27 @@ class DeviceWorlds:
             ],
             outputs=[self.state, self.odometry, self.proximity, self.velocity, self.out],
         )
+
+    def mujoco_rays(self) -> wp.array[Any]:
+        """``mujoco_warp.rays`` for the laser's rays of the current state (-1: no hit).
+
+        What the culled kernel replaced; the tests' reference and ``bench/warp_speed.py --split``'s.
+        """
+        with wp.ScopedDevice(self.device):
+            out = wp.zeros_like(self.dist)
+            mjw.rays(
+                self.model,
+                self.data,
+                self.pnt,
+                self.vec,
+                self.geomgroup,
+                True,
+                self.bodyexclude,
+                out,
+                self.geomid,
+                self.normal,
+            )
+        return out
 
     def fetch(self, rewards: NDArray[np.float64] | None = None, laser: bool = True) -> HostCopy:
         """The host's copy of the step (``rewards``: keep these, a SameStep reset's pass).
