@@ -10,11 +10,12 @@ worlds (the arenas' table rows), by the numba draw and by the CPU env's own plac
 
 Rows, per N: the env's ``step`` with numpy outputs (what a CPU learner gets: observations,
 rewards and the full ``info`` on the host), with ``outputs="warp"`` (observations stay on the
-device), and MuJoCo Warp's floor for the same worlds: 4 x (``step2`` + ``step1``) and one
-``mjw.rays`` call of the 360-ray laser, nothing else. Anchor: the CPU native batch
-(``BubbleRobVectorEnv``, N=64, every core) in the same run. The device is named in the output;
-on a CPU device (``--device cpu``) the numbers only show that the path runs: MuJoCo Warp is built
-for GPUs. Issue #29's target: >= 1M robot-steps/s with the 360-ray laser on one H100.
+device), and MuJoCo Warp's floor for the same worlds: 4 x (``step2`` + ``step1``) and the env's
+laser (the culled cast of ``bubblerob_env/mjwarp/laser.py``) with its readings, nothing else.
+Anchor: the CPU native batch (``BubbleRobVectorEnv``, N=64, every core) in the same run. The
+device is named in the output; on a CPU device (``--device cpu``) the numbers only show that the
+path runs: MuJoCo Warp is built for GPUs. Issue #29's target: >= 1M robot-steps/s with the
+360-ray laser on one H100.
 """
 
 from __future__ import annotations

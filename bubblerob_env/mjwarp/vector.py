@@ -3,8 +3,8 @@
 ``gym.make_vec("BubbleRob-v0", num_envs=N, vectorization_mode="vector_entry_point",
 backend="warp", device="cuda:0")`` makes one. Spaces, kwargs, autoreset modes and ``info`` keys
 are the CPU batch's (:class:`~bubblerob_env.batch.cpu.BubbleRobVectorEnv`); physics, the collision
-check after every substep, the laser (``mujoco_warp.rays``), the proximity sensor, rewards,
-odometry, time limits and resets run on the device, for every world at once.
+check after every substep, the laser (:mod:`~bubblerob_env.mjwarp.laser`), the proximity sensor,
+rewards, odometry, time limits and resets run on the device, for every world at once.
 
 Equivalence with the CPU env, not bit-for-bit identity: MuJoCo Warp computes in float32 and its
 solver is not MuJoCo's, so states drift apart by float32 rounding; tests/warp holds the laser,
