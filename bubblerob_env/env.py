@@ -10,6 +10,8 @@ its own), and :class:`~bubblerob_env.batch.common.ObservationFormat` builds the 
 from __future__ import annotations
 
 import copy
+import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -31,7 +33,7 @@ from bubblerob_env.config import (
 )
 from bubblerob_env.core.batch import RobotBatch
 from bubblerob_env.core.kernel import OUT
-from bubblerob_env.infos import robot_info
+from bubblerob_env.infos import robot_info, row_info
 from bubblerob_env.kinematics import DiffDrive
 from bubblerob_env.odometry import Odometry, draw_slip
 from bubblerob_env.rendering import EnvViews, render_modes_here
@@ -42,7 +44,22 @@ from bubblerob_env.specs import EnvSpecs
 
 __all__ = ["ACTION_TYPES", "OBS_MODES", "BubbleRobEnv", "Observation"]
 
-_VIEWS = ("_core", "_one_robot", "_row")  # the kernel's buffers: attached again, never pickled
+# The kernel's buffers, views of this robot's rows and the bound kernel: attached again, never
+# pickled.
+_VIEWS = (
+    "_core",
+    "_one_robot",
+    "_row",
+    "_step_kernel",
+    "_action_row",
+    "_out_row",
+    "_laser_row",
+    "_proximity_row",
+    "_velocity_row",
+    "_odometry_pose",
+)
+# Actions whose values need no checking beyond finiteness (numpy's own float arrays).
+_FLOAT32, _FLOAT64 = np.dtype(np.float32), np.dtype(np.float64)
 # The kernel's result columns the step reads, as plain ints (faster to index with than enums).
 _COLLISION, _CLIPPED, _DIVERGED, _REWARD = (
     int(c) for c in (OUT.COLLISION, OUT.CLIPPED, OUT.DIVERGED, OUT.REWARD)
@@ -305,6 +322,11 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
         """
         self._core, self._row = core, row
         self._one_robot = np.array([row], dtype=np.int64)
+        self._step_kernel: Callable[[], None] | None = None  # bound on the first step
+        # Views of this robot's rows (the buffers are written in place, never replaced).
+        self._action_row, self._out_row = core.actions[row], core.out[row]
+        self._laser_row, self._proximity_row = core.laser[row], core.proximity[row]
+        self._velocity_row = core.velocity[row]
         core.refresh_geoms(row, self.scene.model)
         if odometry is None:
             odometry = Odometry(1, self.drive.wheel_separation, self.odometry_noise)
@@ -312,6 +334,7 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
             if previous is not None:
                 odometry.state[0] = previous.state[self._odometry_row]
         self._odometry, self._odometry_row = odometry, row
+        self._odometry_pose = odometry.poses[row]
 
     @property
     def dt(self) -> float:
@@ -344,32 +367,42 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
         self._check_open("step")
         if self.layout is None:
             raise RuntimeError("step() called before reset(): reset the env first")
-        core = self._core
-        core.actions[self._row] = checked_action(action)
+        self._action_row[0], self._action_row[1] = _action_values(action)
         self._draw_noise()
         # The kernel does what this method did in Python, with the same arithmetic: step2 then
         # step1 per substep (kinematics, contacts and sensors of the final state), a contact
         # check after every substep (a touch that begins and ends inside one control step is
         # still a collision), the sensors, the reward and its parts.
-        core.step(self._one_robot)
-        values = core.out[self._row].tolist()
+        (self._step_kernel or self._bind_kernel())()
+        out = self._out_row.copy()  # one copy: info's arrays are views into it
+        values = out.tolist()
         slip = draw_slip(self.np_random, self.odometry_noise)[None] if self.odometry_noise else None
         self._odometry.advance_one(self._odometry_row, values, slip)
         collision = values[_COLLISION] != 0.0
         self._clipped_actions += values[_CLIPPED] != 0.0
         diverged = self.scene.diverged() if values[_DIVERGED] else ""
         obs = self._observation()
-        reward = values[_REWARD]
         terminated = collision and self.terminate_on_collision
         self._collided = self._collided or collision
         if self.render_mode == "human":
             self.render()
-        info = self._info()
+        info = row_info(
+            out,
+            values,
+            self._odometry_pose.tolist(),
+            self._proximity_row.item(),
+            self.scene.proximity_spec.trigger_distance,
+            self._clipped_actions,
+        )
         # Success so far: on the episode's last step, whether the episode is a success.
         info["is_success"] = not (self._collided or diverged)
         if diverged:
             info["physics_diverged"] = diverged
-        return obs, reward, terminated, bool(diverged), info
+        return obs, values[_REWARD], terminated, bool(diverged), info
+
+    def _bind_kernel(self) -> Callable[[], None]:
+        self._step_kernel = self._core.stepper(self._one_robot)
+        return self._step_kernel
 
     def _draw_noise(self) -> None:
         # Laser noise comes from the episode's generator, one draw per scan, as before.
@@ -411,11 +444,11 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
 
     def _observation(self) -> Observation:
         """The kernel's readings of this robot as an observation (copies: buffers are reused)."""
-        core, row, scene = self._core, self._row, self.scene
+        scene = self.scene
         laser = None
         if scene.laser_spec is not None:
-            laser = self.last_laser = core.laser[row].copy()
-        proximity, velocity = core.proximity[row].copy(), core.velocity[row].copy()
+            laser = self.last_laser = self._laser_row.copy()
+        proximity, velocity = self._proximity_row.copy(), self._velocity_row.copy()
         camera = scene.camera(scene.model, scene.data) if scene.camera is not None else None
         obs: Observation = self.observation_format.assemble(laser, proximity, velocity, camera)
         return obs
@@ -442,3 +475,18 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
         self._closed = True
         self.scene.close()
         self._views.close()
+
+
+def _action_values(action: Any) -> tuple[float, float]:
+    """:func:`checked_action`, with a shortcut for what agents pass: a float array of 2.
+
+    Its values as Python floats are exactly those ``np.asarray(action, np.float64)`` holds;
+    anything else (lists, other dtypes, shapes, NaN) takes the full check and its messages.
+    """
+    if type(action) is np.ndarray and action.shape == (2,):
+        dtype = action.dtype
+        if dtype is _FLOAT32 or dtype is _FLOAT64:
+            a0, a1 = action.tolist()
+            if math.isfinite(a0) and math.isfinite(a1):
+                return a0, a1
+    return checked_action(action)

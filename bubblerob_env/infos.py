@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 
 from bubblerob_env.core.kernel import OUT
 
-__all__ = ["Results", "batched_step_info", "robot_info", "robot_step_info"]
+__all__ = ["Results", "batched_step_info", "robot_info", "robot_step_info", "row_info"]
 
 
 class Results(Protocol):
@@ -54,6 +54,15 @@ _REWARD_COLUMNS = (
 )
 
 
+# The same columns as ints and slices, for the literal that builds one robot's dict (a dict
+# display with constant keys is what CPython builds fastest; the single env builds one a step).
+_SIM_TIME, _X, _Y, _YAW = (column for _, column, _ in _FLOAT_COLUMNS[:4])
+_POSITION, _QUATERNION, _TWIST, _WHEELS, _COMMAND = (
+    slice(column, column + width) for _, column, width in _FLOAT_COLUMNS[4:]
+)
+_FORWARD, _SPIN, _CLEARANCE, _COLLISION_COST = (column for _, column in _REWARD_COLUMNS)
+
+
 def robot_info(
     core: Results,
     i: int,
@@ -66,19 +75,48 @@ def robot_info(
     ``odometry``: every robot's odometry ``(x, y, yaw)`` (``Odometry.poses``).
     """
     row = core.out[i].copy()  # one copy: the array keys are views into it
-    values = row.tolist()
-    info: dict[str, Any] = {
-        key: values[column] if width == 0 else row[column : column + width]
-        for key, column, width in _FLOAT_COLUMNS
+    proximity = float(core.proximity[i, 0])
+    return row_info(
+        row, row.tolist(), odometry[i].tolist(), proximity, trigger_distance, clipped_actions
+    )
+
+
+def row_info(
+    row: NDArray[np.float64],
+    values: list[float],
+    odometry: list[float],
+    proximity: float,
+    trigger_distance: float,
+    clipped_actions: int,
+) -> dict[str, Any]:
+    """:func:`robot_info` from what the caller already has (the single env's step).
+
+    ``row``: a copy of the robot's :class:`~bubblerob_env.core.kernel.OUT` columns (the array
+    keys are views into it), ``values`` the same as a list; ``odometry`` its odometry
+    ``[x, y, yaw]``, ``proximity`` its proximity reading.
+    """
+    return {
+        "sim_time": values[_SIM_TIME],
+        "x": values[_X],
+        "y": values[_Y],
+        "yaw": values[_YAW],
+        "position": row[_POSITION],
+        "quaternion_wxyz": row[_QUATERNION],
+        "body_twist": row[_TWIST],
+        "wheel_speeds": row[_WHEELS],
+        "wheel_command": row[_COMMAND],
+        "odom_x": odometry[0],
+        "odom_y": odometry[1],
+        "odom_yaw": odometry[2],
+        "collision": values[_COLLISION] != 0.0,
+        "proximity_triggered": bool(proximity < trigger_distance),
+        "action_clipped": values[_CLIPPED] != 0.0,
+        "clipped_actions": clipped_actions,
+        "reward_forward": values[_FORWARD],
+        "reward_spin": values[_SPIN],
+        "reward_clearance": values[_CLEARANCE],
+        "reward_collision": values[_COLLISION_COST],
     }
-    info["odom_x"], info["odom_y"], info["odom_yaw"] = odometry[i].tolist()
-    info["collision"] = values[_COLLISION] != 0.0
-    info["proximity_triggered"] = bool(float(core.proximity[i, 0]) < trigger_distance)
-    info["action_clipped"] = values[_CLIPPED] != 0.0
-    info["clipped_actions"] = clipped_actions
-    for key, column in _REWARD_COLUMNS:
-        info[key] = values[column]
-    return info
 
 
 def robot_step_info(

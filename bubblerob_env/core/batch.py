@@ -9,12 +9,14 @@ of a config and scene (the MuJoCo Warp backend reads them too).
 
 from __future__ import annotations
 
+import functools
 import math
-from collections.abc import Sequence
-from typing import Protocol
+from collections.abc import Callable, Sequence
+from typing import Any, Protocol
 
 import mujoco
 import numpy as np
+from numba.core.dispatcher import Dispatcher
 from numpy.typing import NDArray
 
 from bubblerob_env import names
@@ -36,6 +38,7 @@ from bubblerob_env.core.kernel import (
     step_robots,
 )
 from bubblerob_env.core.mjabi import data_layout
+from bubblerob_env.core.packed import step_packed, step_table
 from bubblerob_env.core.raycast import GEOM_BOX, GEOM_CYLINDER
 from bubblerob_env.sensors import LaserSpec, ProximitySpec
 
@@ -200,9 +203,36 @@ class RobotBatch:
             robots, self.ptrs, self.actions, self.settings, self.tables, self.state, self.outputs
         )
 
+    def stepper(self, robots: NDArray[np.int64]) -> Callable[[], None]:
+        """:meth:`step` of ``robots`` as a call without arguments (the single env's step).
+
+        For a caller that steps the same robots every time. Numba's dispatcher types every
+        argument again on each call, and turns each of the 18 arrays into a native one: this
+        binds the compiled step once (loaded from numba's cache, or compiled, now) to a table
+        of the arrays' addresses (:mod:`~bubblerob_env.core.packed`). The call keeps this batch
+        and ``robots`` alive; their arrays are written in place, never replaced.
+        """
+        table = step_table(
+            robots, self.ptrs, self.actions, self.settings, self.tables, self.state, self.outputs
+        )
+        call = functools.partial(compiled(step_packed, (table,)), table)
+        call.keepalive = (self, robots)  # type: ignore[attr-defined]
+        return call
+
     def observe(self, robots: NDArray[np.int64]) -> None:
         """Sensors and ``info`` numbers of ``robots`` as they are (after a reset)."""
         observe_robots(robots, self.ptrs, self.settings, self.tables, self.state, self.outputs)
+
+
+def compiled(function: Dispatcher, args: tuple[Any, ...]) -> Callable[..., Any]:
+    """The machine code numba runs for ``function(*args)``, without its per-call type dispatch.
+
+    Only for arguments of exactly these types (numba checks nothing when it is called).
+    """
+    signature = tuple(function.typeof_pyval(arg) for arg in args)
+    function.compile(signature)  # nothing to do once compiled; else from numba's cache
+    entry: Callable[..., Any] = function.overloads[signature].entry_point  # type: ignore[attr-defined]
+    return entry
 
 
 def _tables(model: mujoco.MjModel, spec: LaserSpec | None) -> Tables:
