@@ -11,6 +11,7 @@ from typing import Any
 
 import gymnasium as gym
 
+from bubblerob_cli.action_type import add_action_type_option
 from bubblerob_cli.args import add_env_arguments
 from bubblerob_cli.foxglove_view import add_foxglove_option, serve
 from bubblerob_cli.outputs import Output, add_overwrite_option, require_outputs
@@ -47,6 +48,7 @@ def add_demo_subcommand(subparsers: Any) -> None:
     demo.add_argument("--out", type=Path, default=Path("demo_output"), help="output folder")
     demo.add_argument("--no-video", action="store_true", help="skip the video")
     add_overwrite_option(demo)
+    add_action_type_option(demo)
     add_env_arguments(demo)
     add_foxglove_option(demo)
     demo.set_defaults(handler=_run_demo)
@@ -146,7 +148,7 @@ def _run_demo(args: argparse.Namespace) -> int:
         ],
         args.overwrite,
     )
-    check_policies("demo", [args.policy], args.env, args.env_kwargs)
+    check_policies("demo", [args.policy], args.env, args.env_kwargs, args.action_type)
     try:
         return _demo_and_report(args)
     except OSError as error:  # an unwritable --out: the recorder or the video says where

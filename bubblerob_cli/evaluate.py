@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from bubblerob_cli.action_type import add_action_type_option
 from bubblerob_cli.args import add_env_arguments
 from bubblerob_cli.demo import add_demo_subcommand
 from bubblerob_cli.errors import fail
@@ -75,6 +76,7 @@ def add_subcommands(subparsers: Any) -> None:
         help="the policy --video records (default: the first --policy)",
     )
     add_overwrite_option(parser)
+    add_action_type_option(parser)
     parser.add_argument(
         "--ray",
         metavar="ADDRESS",
@@ -114,7 +116,7 @@ def _run_evaluate(args: argparse.Namespace) -> int:
         ],
         args.overwrite,
     )
-    check_policies("evaluate", list(args.policy), args.env, args.env_kwargs)
+    check_policies("evaluate", list(args.policy), args.env, args.env_kwargs, args.action_type)
     if args.robots is not None:
         return run_robots(args)
     if args.ray is not None and args.foxglove is not None:

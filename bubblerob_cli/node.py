@@ -10,6 +10,7 @@ import sys
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
+from bubblerob_cli.action_type import add_action_type_option, load_checked, refuse_unused
 from bubblerob_cli.args import add_env_arguments, make_env, with_options
 from bubblerob_cli.errors import fail
 from bubblerob_cli.node_robots import add_robots_argument
@@ -174,6 +175,7 @@ def _add_later_arguments(node: argparse.ArgumentParser) -> None:
         help="drive the robot with this policy instead of /cmd_vel (as evaluate --policy): "
         "navigator on a Nav env drives to each goal (with --localize, seen from the estimate)",
     )
+    add_action_type_option(node)
     node.add_argument("--steps", type=int, default=None, help="exit after this many steps")
     node.add_argument("--duration", type=float, default=None, help="exit after this many seconds")
     node.add_argument(
@@ -243,7 +245,11 @@ def _node(args: argparse.Namespace) -> int:
         if problem := localize_problem(env, config.map_resolution):
             env.close()
             fail("node", f"--localize: {problem}")
-    driver = None if args.policy is None else _driver(args.policy, env, args.localize)
+    if args.policy is None:
+        refuse_unused("node", args.action_type, False)
+    driver = (
+        None if args.policy is None else _driver(args.policy, env, args.localize, args.action_type)
+    )
     backend = _start_backend(args, env)
     config = _follow_clock(args, backend, config)
     controls = CONTROL_PRESETS.get(args.topics)
@@ -317,7 +323,7 @@ def _start_backend(args: argparse.Namespace, env: Any) -> LiveBackend:
         fail("node", str(error))
 
 
-def _driver(name: str, env: Any, localize: str | None) -> Any:
+def _driver(name: str, env: Any, localize: str | None, action_type: str | None) -> Any:
     """``--policy``: ``driver(obs, episode_start) -> action``; one line and exit 2 if unusable."""
     from policies.loading import load_policy
 
@@ -329,10 +335,11 @@ def _driver(name: str, env: Any, localize: str | None) -> Any:
             "--localize's estimate: use --policy navigator, or leave out --localize",
         )
     try:
-        policy = load_policy(name, env)
+        policy, bare = load_checked("node", name, env, action_type, lambda: load_policy(name, env))
     except (ValueError, OSError) as error:
         env.close()
         fail("node", f"--policy {name}: {error}")
+    refuse_unused("node", action_type, bare)
 
     def drive(obs: Any, episode_start: bool) -> Any:
         if episode_start:

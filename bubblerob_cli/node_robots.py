@@ -7,6 +7,7 @@ import signal
 import sys
 from typing import Any
 
+from bubblerob_cli.action_type import load_checked, refuse_unused
 from bubblerob_cli.errors import fail
 
 __all__ = ["add_robots_argument", "run_robots"]
@@ -153,6 +154,7 @@ def _serve_foxglove(backend: Any, node: Any) -> str:
 def _drivers(args: argparse.Namespace, env: Any, kwargs: dict[str, Any]) -> Any:
     """``--policy``: one policy per robot (each its own state), as ``driver(agent, obs, start)``."""
     if args.policy is None:
+        refuse_unused("node", args.action_type, False)
         return None
     import gymnasium as gym
 
@@ -160,6 +162,10 @@ def _drivers(args: argparse.Namespace, env: Any, kwargs: dict[str, Any]) -> Any:
 
     single = gym.make(args.env, **kwargs)  # the policy's spaces: one robot's
     try:
+        _, bare = load_checked(
+            "node", args.policy, single, args.action_type, lambda: load_policy(args.policy, single)
+        )
+        refuse_unused("node", args.action_type, bare)
         policies = {agent: load_policy(args.policy, single) for agent in env.possible_agents}
     except (ValueError, OSError) as error:
         env.close()

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import functools
 from pathlib import Path
 from typing import Any
 
+from bubblerob_cli.action_type import load_checked, refuse_unused
 from bubblerob_cli.errors import fail
 from policies.evaluation import DEFAULT_EVAL_SEED
 from policies.protocol import SPLITS
@@ -13,19 +15,26 @@ from policies.protocol import SPLITS
 __all__ = ["check_episode_arguments", "check_policies"]
 
 
-def check_policies(command: str, names: list[str], env_id: str, env_kwargs: Any) -> None:
-    """Load each policy once before any episode: a wrong name or file is one line, exit 2."""
+def check_policies(
+    command: str, names: list[str], env_id: str, env_kwargs: Any, action_type: str | None = None
+) -> None:
+    """Load each policy once before any episode: a wrong name or file is one line, exit 2.
+
+    A bare SB3 zip needs ``action_type``, the env's (:mod:`bubblerob_cli.action_type`).
+    """
     import gymnasium as gym
 
     from policies.loading import load_policy
 
+    any_bare = False
     for name in names:
         try:
             env = gym.make(env_id, **(env_kwargs or {}))
         except (gym.error.Error, TypeError, ValueError) as error:  # a usage error: exit 2
             fail(command, f"--env {env_id} --env-kwargs: {error}")
         try:
-            load_policy(name, env)
+            load = functools.partial(load_policy, name, env)
+            any_bare |= load_checked(command, name, env, action_type, load)[1]
         except (ValueError, TypeError, OSError) as error:  # a usage error: exit 2
             env.close()
             fail(command, str(error).strip().splitlines()[0])
@@ -37,6 +46,7 @@ def check_policies(command: str, names: list[str], env_id: str, env_kwargs: Any)
                 f"{type(error).__name__}: {(str(error).strip().splitlines() or [''])[0]}",
             )
         env.close()
+    refuse_unused(command, action_type, any_bare)
 
 
 def check_episode_arguments(command: str, args: argparse.Namespace) -> None:

@@ -15,6 +15,7 @@ import gymnasium as gym
 import numpy as np
 
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
+from bubblerob_cli.action_type import add_action_type_option, load_checked, refuse_unused
 from bubblerob_cli.args import add_env_arguments, make_env, with_options
 from bubblerob_cli.errors import report
 from bubblerob_cli.outputs import Output, OutputError, add_overwrite_option, check_outputs
@@ -75,6 +76,7 @@ def _add_record(subparsers: Any) -> None:
     record.add_argument("--namespace", default="", help="prefix for the robot's topics")
     record.add_argument("--per-episode", action="store_true", help="one bag per episode")
     add_overwrite_option(record)
+    add_action_type_option(record)
     record.add_argument(
         "--start-time",
         default=None,
@@ -150,6 +152,21 @@ def _load_policy(name: str, env: gym.Env[Any, Any], seed: int) -> Any:
     return load_policy(name, env=env, seed=seed)
 
 
+def _check_action_type(args: argparse.Namespace) -> None:
+    """``--robots``: a bare zip's ``--action-type``, checked on one robot's env before the world."""
+    env = make_env("record", args.env, record_env_kwargs(args))
+    try:
+        _, bare = load_checked(
+            "record", args.policy, env, args.action_type,
+            lambda: _load_policy(args.policy, env, args.seed),
+        )  # fmt: skip
+    except Exception:  # noqa: BLE001 - the world's own load says it in one line
+        bare = args.action_type is not None
+    finally:
+        env.close()
+    refuse_unused("record", args.action_type, bare)
+
+
 def _record_usage_error(args: argparse.Namespace) -> str | None:
     """What is wrong with ``record``'s arguments, in one line, or ``None``."""
     if args.episodes < 1:
@@ -217,6 +234,8 @@ def _record(args: argparse.Namespace) -> int:
     if args.robots != 1:
         from bubblerob_cli.record_robots import record_robots
 
+        _check_action_type(args)
+
         return record_robots(args, record_env_kwargs(args), args.out / bag_name(args))
     if args.ray is not None:  # bubblerob_cli.ray.record imports Ray; this module does not
         from bubblerob_cli.ray.record import record_command
@@ -225,11 +244,15 @@ def _record(args: argparse.Namespace) -> int:
     env = make_env("record", args.env, record_env_kwargs(args), dict_observations=True)
     name = bag_name(args)
     try:
-        policy = _load_policy(args.policy, env, args.seed)
+        policy, bare = load_checked(
+            "record", args.policy, env, args.action_type,
+            lambda: _load_policy(args.policy, env, args.seed),
+        )  # fmt: skip
     except Exception as error:  # noqa: BLE001 - said in one line by _policy_error
         env.close()
         report("record", _policy_error(args.policy, error))
         return 2
+    refuse_unused("record", args.action_type, bare)
     try:
         recorder = RosBagRecorder(
             env,

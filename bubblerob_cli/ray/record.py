@@ -173,14 +173,19 @@ def record_on_ray(
 
 
 def _check_policy(args: Any, env_kwargs: dict[str, Any]) -> None:
+    from bubblerob_cli.action_type import load_checked, refuse_unused
     from bubblerob_cli.args import make_env
     from policies.loading import load_policy
 
     env = make_env("record", args.env, dict(env_kwargs))
     try:
-        load_policy(args.policy, env=env, seed=args.seed)
+        _, bare = load_checked(
+            "record", args.policy, env, args.action_type,
+            lambda: load_policy(args.policy, env=env, seed=args.seed),
+        )  # fmt: skip
     finally:
         env.close()
+    refuse_unused("record", args.action_type, bare)
 
 
 def record_command(args: Any, env_kwargs: dict[str, Any]) -> int:
