@@ -36,6 +36,7 @@ from bubblerob_env.ros.episodes import (
 from bubblerob_env.ros.fanout import MessageFanout
 from bubblerob_env.ros.messages.topics import Topics
 from bubblerob_env.specs import EnvSpecs
+from bubblerob_env.tasks.nav import BubbleRobNavEnv
 
 __all__ = [
     "EPISODES_KEY",
@@ -132,6 +133,9 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
         """Episodes recorded to their end (terminated or truncated), in every bag so far."""
         self.start_time_ns = start_time_ns(start_time)
         self._stream = EpisodeStream(self._fanout, self._dt_ns, self.start_time_ns, map_resolution)
+        facts = {"distro": self.distro, "format": self.format, "topics": self.topics.to_dict()}
+        self._facts = jsonable(facts | self.metadata)  # every episode's: made once
+        self._goals = isinstance(env.unwrapped, BubbleRobNavEnv)  # goals set between steps
         self._sink: BagSink | None = None
         self._closed = False
         self._bag_paths: list[Path] = []
@@ -199,8 +203,7 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
             if self.per_episode and self._episode_count > 0:
                 self._close_bag()
                 self._open_bag(self._episode_count)
-            facts = {"distro": self.distro, "format": self.format, "topics": self.topics.to_dict()}
-            obs, info, episode = self._stream.reset(self.env, seed, options, facts | self.metadata)
+            obs, info, episode = self._stream.reset(self.env, seed, options, self._facts)
             self._episodes.append(episode)
             self._episode_count += 1
         return obs, info
@@ -210,7 +213,8 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
         if self._stream.last_ns is None or self._closed:
             raise RuntimeError("call reset() before step() (and do not step a closed recorder)")
         with safety.critical:
-            self._stream.follow_goal(self.env)  # a Nav env's goal set since the last step
+            if self._goals:
+                self._stream.follow_goal(self.env)  # a Nav env's goal set since the last step
             obs, reward, terminated, truncated, info = self.env.step(action)
             self._stream.step(obs, info, action, reward, terminated, truncated)
             if (terminated or truncated) and self._sink is not None:

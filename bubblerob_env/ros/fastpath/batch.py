@@ -184,7 +184,8 @@ class FrameBatch:
         return dict(zip(names, values, strict=True))
 
 
-_NO_ODOMETRY = (0.0, 0.0, 0.0)  # the odometry columns of an env without odometry noise
+_NO_ODOMETRY = np.zeros(3)  # the odometry columns of an env without odometry noise (an array:
+# concatenate would convert a tuple every step)
 
 # FrameBatch.add gathers a row with a tuple literal (the cheapest per step): keep it in ROW order.
 assert [key for _, key, _ in ROW] == [
