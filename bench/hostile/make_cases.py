@@ -17,6 +17,7 @@ from typing import Any
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
+from action_type_cases import action_type_cases  # noqa: E402 - bench/hostile/action_type_cases.py
 from output_cases import output_cases  # noqa: E402 - bench/hostile/output_cases.py
 from teleop_cases import teleop_cases  # noqa: E402 - bench/hostile/teleop_cases.py
 
@@ -662,6 +663,7 @@ def main() -> None:
         *policy_cases(),
         *output_cases(),
         *teleop_cases(),
+        *action_type_cases(),
     ]
     ids = [c["id"] for c in cases]
     assert len(ids) == len(set(ids)), "case ids must be unique"
