@@ -2,8 +2,9 @@
 
 Every output option (``map --out``, ``localize --out``, ``evaluate --per-episode`` and
 ``--video``) pointed at what it must never write (a recording, a directory, ``/proc``, an unknown
-suffix) is refused in one line, exit 2, before any episode runs or bag is read, and the target is
-left byte for byte as it was (Hypothesis draws the option and the target). Standard output full
+suffix, an earlier output without ``--overwrite``) is refused in one line, exit 2, before any
+episode runs or bag is read, and the target is left byte for byte as it was (Hypothesis draws the
+option and the target). Standard output full
 or closed is one line. ``record``/``node`` with flat observations, no display for
 ``render_mode="human"``, a map too coarse to localise on: refused at start. A sample of the
 hostile campaign (``bench/hostile``) runs here; the whole campaign is a bench run.
@@ -34,7 +35,7 @@ def _digest(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest() if path.exists() else "absent"
 
 
-TARGETS = ("bag file", "bag folder file", "directory", "proc", "suffix")
+TARGETS = ("bag file", "bag folder file", "directory", "proc", "suffix", "earlier output")
 COMMANDS = ("map --out", "localize --out", "evaluate --per-episode", "evaluate --video")
 
 
@@ -54,7 +55,10 @@ def test_every_output_option_is_checked_before_the_work(
         "directory": folder,
         "proc": Path("/proc/no/such") / f"x{wanted}",
         "suffix": folder / "x.unknown",
+        "earlier output": folder / f"earlier{wanted}",  # written below: no --overwrite given
     }[target]
+    if target == "earlier output":
+        path.write_bytes(b"an earlier output\n")
     before = {p: _digest(p) for p in (bag, path)}
     name, option = command.split(" ")
     head = (
