@@ -6,16 +6,49 @@ the data section CRC (``DataEnd``) and the summary CRC (``Footer``) cover the wh
 are computed when the file is finished: :func:`seal` reads it back once (CRC-32 runs at over a
 GB/s) and patches the two fields, as the MCAP spec defines them
 (https://mcap.dev/spec#data-end-op0x0f, https://mcap.dev/spec#footer-op0x02).
+
+A chunk's CRC costs about half its compression (zlib's CRC-32 runs at ~1.2 GB/s here, zstd at
+level 1 at ~0.5-0.7 GB/s on frames): :func:`crc_beside` computes it in a worker thread while the
+caller compresses the same bytes. Both release the GIL, so on two cores the chunk closes in the
+time of the compression alone; it still closes before the call returns (flushes and crash safety
+see the same file as before).
 """
 
 from __future__ import annotations
 
+import os
 import struct
 import zlib
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
-from typing import BinaryIO
+from typing import BinaryIO, TypeVar
 
-__all__ = ["seal"]
+__all__ = ["crc_beside", "seal"]
+
+_T = TypeVar("_T")
+BESIDE_FROM = 64 * 1024
+"""Smaller chunks take their CRC in the caller: handing work to a thread costs ~50 us."""
+_worker: tuple[int, ThreadPoolExecutor] | None = None  # this process's (pid): a fork has none
+
+
+def crc_beside(data: memoryview, work: Callable[[memoryview], _T]) -> tuple[int, _T]:
+    """``(zlib.crc32(data), work(data))``, the CRC computed in a worker thread meanwhile."""
+    global _worker  # noqa: PLW0603 - one worker per process, made on first use
+    if data.nbytes < BESIDE_FROM:
+        return zlib.crc32(data), work(data)
+    if _worker is None or _worker[0] != os.getpid():  # a forked child: its own worker
+        _worker = (os.getpid(), ThreadPoolExecutor(1, thread_name_prefix="bubblerob-crc"))
+    try:
+        crc = _worker[1].submit(zlib.crc32, data)
+    except RuntimeError:  # interpreter shutdown: safety's atexit hook finishing a bag
+        return zlib.crc32(data), work(data)
+    try:
+        result = work(data)
+    finally:
+        value = crc.result()  # the worker lets go of data before the caller releases it
+    return value, result
+
 
 MAGIC = b"\x89MCAP0\r\n"
 _FOOTER = 1 + 8 + 8 + 8 + 4  # opcode, length, summary_start, summary_offset_start, summary_crc

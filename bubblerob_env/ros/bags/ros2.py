@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import struct
 import sys
-import zlib
 from collections import defaultdict
 from collections.abc import Sequence
 from io import BytesIO
@@ -27,7 +26,7 @@ from rosbags.rosbag2.storage_mcap import McapWriter, PendingChunk, write_channel
 from rosbags.rosbag2.storage_sqlite3 import Sqlite3Writer
 
 from bubblerob_env.ros.bags.humble import rewrite_metadata
-from bubblerob_env.ros.bags.mcap_crc import seal
+from bubblerob_env.ros.bags.mcap_crc import crc_beside, seal
 from bubblerob_env.ros.fastpath.framing import (
     Frame,
     FrameLayout,
@@ -204,9 +203,9 @@ class McapStorage(McapWriter):
         encoding = self.compression.encode()
         chunk_start = self.bio.tell()
         with chunk.bio.getbuffer() as raw:  # no copy of the chunk (released before it goes)
-            compressed = self.compressor(raw)  # type: ignore[arg-type]
+            crc, compressed = crc_beside(raw, self.compressor)  # type: ignore[arg-type]
             times = (chunk.message_start_time, chunk.message_end_time)
-            head = struct.pack("<QQQI", *times, len(raw), zlib.crc32(raw))  # rosbags: 0
+            head = struct.pack("<QQQI", *times, len(raw), crc)  # rosbags: 0
             body = head + struct.pack("<I", len(encoding)) + encoding
             body += struct.pack("<Q", len(compressed))
             self.bio.write(struct.pack("<BQ", 0x06, len(body) + len(compressed)) + body)
