@@ -28,6 +28,8 @@ from bubblerob_env.core.kernel import (
     ICFG_SIZE,
     OUT,
     OUT_SIZE,
+    PACK,
+    PACK_SIZE,
     PTR,
     PTR_SIZE,
     Outputs,
@@ -35,10 +37,10 @@ from bubblerob_env.core.kernel import (
     Settings,
     Tables,
     observe_robots,
+    step_packed,
     step_robots,
 )
-from bubblerob_env.core.mjabi import data_layout
-from bubblerob_env.core.packed import step_packed, step_table
+from bubblerob_env.core.mjabi import data_layout, disableflags_address
 from bubblerob_env.core.raycast import GEOM_BOX, GEOM_CYLINDER
 from bubblerob_env.sensors import LaserSpec, ProximitySpec
 
@@ -48,6 +50,7 @@ __all__ = [
     "analytic_unsupported",
     "kernel_settings",
     "laser_geoms",
+    "step_table",
 ]
 
 _UPRIGHT_TOLERANCE = 1e-9
@@ -160,6 +163,7 @@ class RobotBatch:
         root = int(model.joint(names.ROOT_JOINT).qposadr[0])
         row = self.ptrs[i]
         row[PTR.MODEL], row[PTR.DATA] = model._address, data._address
+        row[PTR.DISABLEFLAGS] = disableflags_address(model)
         for column, array in (
             (PTR.CTRL, data.ctrl),
             (PTR.SENSORDATA, data.sensordata),
@@ -209,8 +213,9 @@ class RobotBatch:
         For a caller that steps the same robots every time. Numba's dispatcher types every
         argument again on each call, and turns each of the 18 arrays into a native one: this
         binds the compiled step once (loaded from numba's cache, or compiled, now) to a table
-        of the arrays' addresses (:mod:`~bubblerob_env.core.packed`). The call keeps this batch
-        and ``robots`` alive; their arrays are written in place, never replaced.
+        of the arrays' addresses (:func:`step_table`, :func:`.kernel.step_packed`). The call
+        keeps this batch and ``robots`` alive; their arrays are written in place, never
+        replaced.
         """
         table = step_table(
             robots, self.ptrs, self.actions, self.settings, self.tables, self.state, self.outputs
@@ -222,6 +227,56 @@ class RobotBatch:
     def observe(self, robots: NDArray[np.int64]) -> None:
         """Sensors and ``info`` numbers of ``robots`` as they are (after a reset)."""
         observe_robots(robots, self.ptrs, self.settings, self.tables, self.state, self.outputs)
+
+
+def step_table(
+    robots: NDArray[np.int64],
+    ptrs: NDArray[np.uint64],
+    actions: NDArray[np.float64],
+    settings: Settings,
+    tables: Tables,
+    state: RobotState,
+    outputs: Outputs,
+) -> NDArray[np.uint64]:
+    """The table of :func:`~bubblerob_env.core.kernel.step_robots`'s arguments.
+
+    The arrays must outlive the table and stay where they are (written in place, never
+    replaced or resized); a ``ValueError`` if one is not C-contiguous or of the kernel's dtype.
+    """
+    n, nray = ptrs.shape[0], state[1].shape[1]
+    arrays: list[tuple[PACK, NDArray[np.generic], type, tuple[int, ...]]] = [
+        (PACK.ROBOTS, robots, np.int64, robots.shape),
+        (PACK.PTRS, ptrs, np.uint64, (n, PTR_SIZE)),
+        (PACK.ACTIONS, actions, np.float64, (n, 2)),
+        (PACK.ICFG, settings[0], np.int64, (ICFG_SIZE,)),
+        (PACK.CFG, settings[1], np.float64, (CFG_SIZE,)),
+        (PACK.IS_OBSTACLE, tables[0], np.uint8, tables[0].shape),
+        (PACK.GEOM_TYPE, tables[1], np.int32, tables[0].shape),
+        (PACK.LOCAL_DIRS, tables[2], np.float64, (nray, 3)),
+        (PACK.GEOMGROUP, tables[3], np.uint8, tables[3].shape),
+        (PACK.CAST_GEOMS, state[0], np.int32, (n, state[0].shape[1])),
+        (PACK.NOISE, state[1], np.float64, (n, nray)),
+        (PACK.DIRS, state[2], np.float64, (n, nray, 3)),
+        (PACK.DIST, state[3], np.float64, (n, nray)),
+        (PACK.GEOMID, state[4], np.int32, (n, nray)),
+        (PACK.LASER, outputs[0], np.float32, (n, nray)),
+        (PACK.PROXIMITY, outputs[1], np.float32, (n, 1)),
+        (PACK.VELOCITY, outputs[2], np.float32, (n, 2)),
+        (PACK.OUT, outputs[3], np.float64, (n, OUT_SIZE)),
+    ]
+    table = np.zeros(PACK_SIZE, dtype=np.uint64)
+    for slot, array, dtype, shape in arrays:
+        if array.dtype != dtype or array.shape != shape or not array.flags.c_contiguous:
+            raise ValueError(
+                f"{slot.name.lower()}: expected a C-contiguous {np.dtype(dtype)} array of shape "
+                f"{shape}, got {array.dtype} {array.shape}"
+            )
+        table[slot] = array.ctypes.data
+    if robots.size and not 0 <= robots.min() <= robots.max() < n:
+        raise ValueError(f"robots must be indices below {n}, got {robots.tolist()}")
+    sizes = (robots.size, n, tables[0].shape[0], nray, state[0].shape[1], tables[3].shape[0])
+    table[PACK.NUM_STEPPED :] = sizes
+    return table
 
 
 def compiled(function: Dispatcher, args: tuple[Any, ...]) -> Callable[..., Any]:

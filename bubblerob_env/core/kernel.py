@@ -7,7 +7,9 @@ laser (the analytic caster, or ``mj_multiRay``), proximity, velocity, the reward
 and the numbers ``info`` holds. It reads and writes each robot's ``mjData`` through addresses
 (:mod:`bubblerob_env.core.mjabi`), so a thread share of robots costs one call and one release of
 the GIL. Every number is computed with the same IEEE operations, in the same order, as the Python
-step it replaces, so results are bit-for-bit those of that code.
+step it replaces, so results are bit-for-bit those of that code. :func:`step_packed` is the
+same step with its arrays given by address, for callers that step the same robots every call
+(the single env).
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from __future__ import annotations
 import math
 from enum import IntEnum
 
+import mujoco
 import numpy as np
 from numba import njit
 from numba.np.numpy_support import carray
@@ -30,6 +33,8 @@ __all__ = [
     "ICFG_SIZE",
     "OUT",
     "OUT_SIZE",
+    "PACK",
+    "PACK_SIZE",
     "PTR",
     "PTR_SIZE",
     "Outputs",
@@ -40,6 +45,7 @@ __all__ = [
     "observe_robots",
     "readings",
     "reward",
+    "step_packed",
     "step_robots",
     "wheel_command",
 ]
@@ -50,9 +56,11 @@ class PTR(IntEnum):
 
     MODEL, DATA, CTRL, SENSORDATA, QPOS, WARNINGS = 0, 1, 2, 3, 4, 5
     SITE_XPOS, SITE_XMAT, GEOM_XPOS, GEOM_XMAT, GEOM_SIZE, GEOM_RBOUND = 6, 7, 8, 9, 10, 11
+    DISABLEFLAGS = 12  # the model's opt.disableflags (0: leave them alone)
 
 
-PTR_SIZE = 12
+PTR_SIZE = 13
+_SENSORS_OFF = int(mujoco.mjtDisableBit.mjDSBL_SENSOR)
 
 
 class ICFG(IntEnum):
@@ -89,6 +97,17 @@ class OUT(IntEnum):
 
 
 OUT_SIZE = 28
+
+
+class PACK(IntEnum):
+    """Slots of :func:`step_packed`'s table (uint64): the arrays' addresses, then their sizes."""
+
+    ROBOTS, PTRS, ACTIONS, ICFG, CFG, IS_OBSTACLE, GEOM_TYPE, LOCAL_DIRS, GEOMGROUP = range(9)
+    CAST_GEOMS, NOISE, DIRS, DIST, GEOMID, LASER, PROXIMITY, VELOCITY, OUT = range(9, 18)
+    NUM_STEPPED, NUM_ROBOTS, NGEOM, NRAY, NCAST, NGROUP = range(18, 24)
+
+
+PACK_SIZE = 24
 
 
 @njit(cache=True, nogil=True)
@@ -159,13 +178,24 @@ def _physics(
     is_obstacle: NDArray[np.uint8],
     out: NDArray[np.float64],
 ) -> None:  # pragma: no cover - numba
-    """Substeps with a contact check after each; divergence and arena warnings."""
+    """Substeps with a contact check after each; divergence and arena warnings.
+
+    Only the final state's sensors are read, and nothing in MuJoCo's dynamics reads sensors, so
+    the substeps before the last run with the model's sensors off (its ``disableflags`` as
+    they were, plus ``mjDSBL_SENSOR``; restored for the last substep): the same states, and
+    the same sensor values at the end.
+    """
     model, data = as_pointer(ptrs[PTR.MODEL]), as_pointer(ptrs[PTR.DATA])
+    flags = _i32(ptrs[PTR.DISABLEFLAGS], 1) if ptrs[PTR.DISABLEFLAGS] else np.zeros(1, np.int32)
+    kept = flags[0]
     collision = False
-    for _ in range(icfg[ICFG.SUBSTEPS]):
+    substeps = icfg[ICFG.SUBSTEPS]
+    for k in range(substeps):
+        flags[0] = kept | _SENSORS_OFF if k < substeps - 1 else kept
         MJ_STEP2(model, data)
         MJ_STEP1(model, data)
         collision = collision or _touching(ptrs[PTR.DATA], icfg, is_obstacle)
+    flags[0] = kept
     out[OUT.COLLISION] = 1.0 if collision else 0.0
     warnings, stride = ptrs[PTR.WARNINGS], icfg[ICFG.WARNING_STRIDE]
     diverged = 0.0  # 1 + the index of the first of BADQACC, BADQPOS, BADQVEL raised
@@ -397,6 +427,48 @@ def _sense(
         geomid[i],
     )
     return _readings(dist[i], noise[i], icfg[ICFG.NOISE] != 0, cfg, laser[i])
+
+
+@njit(cache=True, nogil=True)
+def step_packed(table: NDArray[np.uint64]) -> None:  # pragma: no cover - numba
+    """:func:`step_robots` of the arrays whose addresses and sizes are in ``table`` (:class:`PACK`).
+
+    Numba turns every array argument into a native array on each call (a reference-count
+    record allocated and freed per array): 18 for :func:`step_robots`, which cost the single
+    env as much as a quarter of its Python. Here they are views (``carray``) of the addresses in
+    one table (``core.batch.step_table``), and the step is :func:`step_robots` itself: the same
+    arithmetic, bit for bit. It lives in this file because numba's cache of a function goes
+    stale only when the function's own file changes.
+    """
+    n, ngeom = int(table[PACK.NUM_ROBOTS]), int(table[PACK.NGEOM])
+    nray, ncast = int(table[PACK.NRAY]), int(table[PACK.NCAST])
+    robots = carray(as_pointer(table[PACK.ROBOTS]), int(table[PACK.NUM_STEPPED]), np.int64)
+    ptrs = carray(as_pointer(table[PACK.PTRS]), (n, PTR_SIZE), np.uint64)
+    actions = carray(as_pointer(table[PACK.ACTIONS]), (n, 2), np.float64)
+    settings = (
+        carray(as_pointer(table[PACK.ICFG]), ICFG_SIZE, np.int64),
+        carray(as_pointer(table[PACK.CFG]), CFG_SIZE, np.float64),
+    )
+    tables = (
+        carray(as_pointer(table[PACK.IS_OBSTACLE]), ngeom, np.uint8),
+        carray(as_pointer(table[PACK.GEOM_TYPE]), ngeom, np.int32),
+        carray(as_pointer(table[PACK.LOCAL_DIRS]), (nray, 3), np.float64),
+        carray(as_pointer(table[PACK.GEOMGROUP]), int(table[PACK.NGROUP]), np.uint8),
+    )
+    state = (
+        carray(as_pointer(table[PACK.CAST_GEOMS]), (n, ncast), np.int32),
+        carray(as_pointer(table[PACK.NOISE]), (n, nray), np.float64),
+        carray(as_pointer(table[PACK.DIRS]), (n, nray, 3), np.float64),
+        carray(as_pointer(table[PACK.DIST]), (n, nray), np.float64),
+        carray(as_pointer(table[PACK.GEOMID]), (n, nray), np.int32),
+    )
+    outputs = (
+        carray(as_pointer(table[PACK.LASER]), (n, nray), np.float32),
+        carray(as_pointer(table[PACK.PROXIMITY]), (n, 1), np.float32),
+        carray(as_pointer(table[PACK.VELOCITY]), (n, 2), np.float32),
+        carray(as_pointer(table[PACK.OUT]), (n, OUT_SIZE), np.float64),
+    )
+    step_robots(robots, ptrs, actions, settings, tables, state, outputs)
 
 
 # The parts of one robot's step that robots sharing a world reuse (core/worlds.py): the same

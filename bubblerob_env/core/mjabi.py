@@ -31,6 +31,7 @@ __all__ = [
     "DataLayout",
     "as_pointer",
     "data_layout",
+    "disableflags_address",
     "load_mujoco_library",
 ]
 
@@ -156,3 +157,10 @@ def data_layout() -> DataLayout:
         contact_size=contact_fields["<end>"],
         contact_geom=contact_fields["geom"],
     )
+
+
+def disableflags_address(model: mujoco.MjModel) -> int:
+    """The address of ``model.opt.disableflags`` (an int), anchored on ``opt.gravity``'s view."""
+    gravity = model.opt.gravity.ctypes.data
+    offsets = _offsets("mjOption", "gravity", gravity - model._address)
+    return int(model._address + offsets["disableflags"])
