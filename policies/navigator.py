@@ -3,6 +3,9 @@
 - :class:`NavigatorPolicy` reads only its observation: the goal's distance and bearing, and the
   laser. It steers along the free heading that best trades the gap follower's free corridor
   (:class:`~policies.handwritten.LaserPolicy`) against the angle away from the goal.
+- :class:`CrowdNavigatorPolicy` is the navigator among robots like itself: it reads a narrow
+  return of the scan (another robot's laser window) as that robot's whole body, and passes
+  robots on the right.
 - :class:`PursuitPolicy` is the upper reference: it reads the ground truth (the episode's layout
   and the robot's pose, ``env.unwrapped``), plans the shortest path with some room to spare and
   follows it by pure pursuit. It drives the one env it was loaded for.
@@ -23,9 +26,15 @@ from policies.base import ActionMapper, Observation
 from policies.handwritten import LaserPolicy, OneByOnePolicy
 from policies.observations import PolicyEnvMismatchError, check_observations
 
-__all__ = ["NAVIGATION_POLICIES", "NavigatorPolicy", "PursuitPolicy", "navigation_policy"]
+__all__ = [
+    "NAVIGATION_POLICIES",
+    "CrowdNavigatorPolicy",
+    "NavigatorPolicy",
+    "PursuitPolicy",
+    "navigation_policy",
+]
 
-NAVIGATION_POLICIES = ("navigator", "pursuit")
+NAVIGATION_POLICIES = ("navigator", "pursuit", "crowd_navigator")
 """The built-in controllers of ``BubbleRobNav-v0`` / ``PioneerP3DXNav-v0``."""
 _HEADINGS = 41  # candidate headings, as LaserPolicy's
 _BUBBLEROB_RADIUS, _BUBBLEROB_SPEED = 0.11, 0.4  # what the gains below were tuned for
@@ -51,6 +60,9 @@ def navigation_policy(
     law = _scaled_gap_law(base.robot.radius, mapper, max_heading)
     gap = LaserPolicy(mapper, laser, **law)
     tight = LaserPolicy(mapper, laser, **{**law, "margin": 0.25 * law["margin"]})
+    if name == "crowd_navigator":
+        window = base.robot.laser.window[0]
+        return CrowdNavigatorPolicy(gap, max_heading, base.robot.radius, tight, window=window)
     return NavigatorPolicy(gap, max_heading, base.robot.radius, tight)
 
 
@@ -133,6 +145,72 @@ class NavigatorPolicy(OneByOnePolicy):
         fraction = min(fraction, max(0.3, distance / (4.0 * self.radius)))
         speed = self.mapper.linear_limit * fraction * max(0.0, math.cos(heading))
         return self.mapper.from_twist(speed, angular), float(off_goal[best])
+
+
+class CrowdNavigatorPolicy(NavigatorPolicy):
+    """The navigator among other robots: a narrow return is a robot's body, passed on the right.
+
+    Another robot shows in the scan only as its laser window (a few centimetres wide). A run of
+    rays whose neighbours on both sides, a robot's width away (``body``), lie ``drop`` m farther
+    is read as a window within ``reach`` m: the scan is cut down to the disc of radius ``body``
+    (the robot's radius and a margin) behind it, as if the whole robot were seen. While such a
+    robot is within ``yield_distance`` m and 57 degrees of the heading, the goal's bearing is
+    turned ``keep_right`` rad to the right: every robot keeps right, so a crossing turns into a
+    roundabout instead of a meeting in the middle. Chosen on validation seeds (1000-1004, circle
+    crossings of 4 to 20 robots).
+    """
+
+    name = "crowd_navigator"
+
+    def __init__(
+        self,
+        gap: LaserPolicy,
+        max_heading: float,
+        radius: float,
+        tight: LaserPolicy | None = None,
+        window: float = 0.025,
+        keep_right: float = 0.6,
+    ) -> None:
+        super().__init__(gap, max_heading, radius, tight)
+        angles = gap.laser_spec.angles()
+        self.rays = np.stack([np.cos(angles), np.sin(angles)], axis=1)
+        self.ahead = np.abs(angles) < 1.0
+        self.step = float(gap.laser_spec.angle_increment)
+        self.window, self.keep_right = window, keep_right
+        self.body, self.width = radius + 0.09 * radius / _BUBBLEROB_RADIUS, 0.07 * radius / 0.11
+        self.drop, self.reach, self.yield_distance = 0.2, 2.5, 1.5
+
+    def seen_robots(self, ranges: NDArray[np.float32]) -> NDArray[np.bool_]:
+        """The rays that end on a narrow return: another robot's window."""
+        r = np.asarray(ranges, dtype=np.float64)
+        n = r.size
+        reach_out = np.arcsin(np.minimum(1.0, self.width / np.maximum(r, self.width)))
+        k = np.ceil(reach_out / self.step).astype(np.int64) + 1
+        i = np.arange(n)
+        side = (r[(i - k) % n] > r + self.drop) & (r[(i + k) % n] > r + self.drop)
+        narrow: NDArray[np.bool_] = (r < self.reach) & side
+        return narrow
+
+    def with_bodies(self, ranges: NDArray[np.float32], narrow: NDArray[np.bool_]) -> Any:
+        """The scan cut down to a disc of radius ``body`` behind every narrow return."""
+        r = np.asarray(ranges, dtype=np.float64)
+        centres = (r[narrow] + self.window)[:, None] * self.rays[narrow]
+        along = self.rays @ centres.T
+        inside = self.body**2 - ((centres**2).sum(axis=1)[None, :] - along**2)
+        hit = (inside >= 0) & (along > 0)
+        entry = np.where(hit, along - np.sqrt(np.maximum(inside, 0.0)), np.inf).min(axis=1)
+        return np.minimum(r, np.maximum(entry, 0.01)).astype(np.float32)
+
+    def _act(self, obs: Observation, memory: float) -> tuple[NDArray[np.float32], float]:
+        laser = np.asarray(obs["laser"])
+        narrow = self.seen_robots(laser)
+        if not narrow.any():
+            return super()._act(obs, memory)
+        goal = np.array(obs["goal"], dtype=np.float32)
+        if (narrow & self.ahead & (laser < self.yield_distance)).any():
+            goal[1] -= self.keep_right
+        seen = {**obs, "laser": self.with_bodies(laser, narrow), "goal": goal}
+        return super()._act(seen, memory)
 
 
 class PursuitPolicy(OneByOnePolicy):
