@@ -26,10 +26,14 @@ __all__ = [
     "load_policy",
 ]
 
-SHIPPED_POLICIES = {"ppo": TRAINED_DIR / "ppo_bubblerob_v0.onnx"}
+SHIPPED_POLICIES = {
+    "ppo": TRAINED_DIR / "ppo_bubblerob_v0.onnx",
+    "nav": TRAINED_DIR / "nav" / "ppo_bubblerob_nav_v0.onnx",
+}
 """Trained policies shipped with the package, exported to ONNX from the SB3 ``.zip`` beside them
-(``python -m policies.export_onnx``) and run with onnxruntime, without torch. They were trained for
-``gym.make("BubbleRob-v0")`` with no kwargs."""
+(``python -m policies.export_onnx``) and run with onnxruntime, without torch. ``ppo`` was trained
+for ``gym.make("BubbleRob-v0")``, ``nav`` for ``gym.make("BubbleRobNav-v0")``, both with no
+kwargs."""
 
 
 def load_policy(
@@ -39,13 +43,13 @@ def load_policy(
 
     Args:
         name_or_path: ``"reactive"``, ``"laser"``, ``"random"``, ``"navigator"`` and
-            ``"pursuit"`` (Nav envs only), ``"ppo"`` (the shipped trained
-            policy, run with onnxruntime), the path of an ONNX file written by
-            ``python -m policies.export_onnx``, or the path of an SB3 ``.zip`` (PPO or SAC; needs
-            the [train] extra). A model whose run's ``config.yml`` has an ``env_wrapper`` of
-            :class:`~bubblerob_env.wrappers.LaserPooling` is fed the env's scan min-pooled the
-            same way (:class:`~policies.sb3_policy.PooledPolicy`; ONNX exports do it inside the
-            graph).
+            ``"pursuit"`` (Nav envs only), ``"ppo"`` and ``"nav"`` (the shipped trained
+            policies, run with onnxruntime; ``nav`` drives to a goal), the path of an ONNX
+            file written by ``python -m policies.export_onnx``, or the path of an SB3 ``.zip``
+            (PPO or SAC; needs the [train] extra). A model whose run's ``config.yml`` has an
+            ``env_wrapper`` of :class:`~bubblerob_env.wrappers.LaserPooling` is fed the env's
+            scan min-pooled the same way (:class:`~policies.sb3_policy.PooledPolicy`; ONNX
+            exports do it inside the graph).
         env: The env (or a wrapper of it) the policy will act in: its action type, speed limits
             and laser geometry shape the built-in controllers' actions, and a trained policy is
             checked against the env it was trained for.
