@@ -22,6 +22,7 @@ ROOT = Path(__file__).resolve().parents[1]
         ("soak.py", ["undetected penetration", "memory growth after warm-up", "PASSED"]),
         ("fast_core.py", ["BubbleRob batch N=64, 2 threads", "one thread to two", "machine:"]),
         ("localisation.py", ["| 0-1 | 2 |", "| 7000-7001 | 2 |", "sim s per CPU s"]),
+        ("foxglove_train_speed.py", ["slows training by a median factor", "machine:"]),
         pytest.param(
             "live_speed.py",
             ["| off |", "| 64x64 |", "received msg/s"],

@@ -294,9 +294,10 @@ WATCH_BUDGET = 0.04
 class WatchFirst:
     """Makes the envs of ``make_vec_env`` (in this process), the first one published to Foxglove.
 
-    Whole episodes of that env go out while publishing has cost at most :data:`WATCH_BUDGET` of
-    the wall time (:class:`~bubblerob_env.ros.live.foxglove_publisher.FoxglovePublisher`), under
-    ``Monitor`` and ``env_wrapper``, so that Foxglove sees the env's own observations.
+    Whole episodes of that env go out while a client subscribes and publishing has cost at most
+    :data:`WATCH_BUDGET` of the wall time
+    (:class:`~bubblerob_env.ros.live.foxglove_publisher.FoxglovePublisher`), under ``Monitor``
+    and ``env_wrapper``, so that Foxglove sees the env's own observations.
     """
 
     def __init__(self, env_id: str, address: tuple[str, int]) -> None:
@@ -313,4 +314,4 @@ class WatchFirst:
             return env
         from bubblerob_env.ros.live.foxglove_publisher import FoxglovePublisher
 
-        return FoxglovePublisher(env, *self.address, budget=WATCH_BUDGET)
+        return FoxglovePublisher(env, *self.address, budget=WATCH_BUDGET, watched_only=True)

@@ -68,6 +68,36 @@ def test_a_budget_publishes_whole_episodes_within_it() -> None:
     assert env.overhead <= 0.05 * elapsed + max(costs)
 
 
+def test_watched_only_publishes_nothing_until_a_client_subscribes() -> None:
+    env = FoxglovePublisher(
+        gym.make("BubbleRob-v0", max_episode_steps=10), port=0, budget=0.5, watched_only=True
+    )
+    still = np.zeros(2, dtype=np.float32)
+    env.reset(seed=0)
+    for _ in range(10):
+        env.step(still)
+    assert (env.published_episodes, env.skipped_episodes, env.overhead) == (0, 1, 0.0)
+    client = start_client(
+        env.url,
+        [
+            {"op": "subscribe", "topics": ["/scan"]},
+            {"op": "waitFor", "topic": "/scan", "count": 11},
+        ],
+    )
+    deadline = time.monotonic() + 10
+    while env.backend.subscribers("/scan") == 0:  # type: ignore[attr-defined]
+        assert time.monotonic() < deadline, "the client did not subscribe within 10 s"
+        time.sleep(0.01)
+    env.reset(seed=1)  # the next episode is published whole: its reset's scan and 10 steps'
+    for _ in range(10):
+        env.step(still)
+        time.sleep(0.005)
+    report = finish_client(client)
+    env.close()
+    assert (env.published_episodes, env.skipped_episodes) == (1, 1)
+    assert len(received(report, "/scan", "sensor_msgs/msg/LaserScan")) == 11
+
+
 def test_evaluate_and_demo_serve_their_episodes(tmp_path: Path) -> None:
     evaluate = subprocess.run(
         [sys.executable, "-m", "bubblerob_cli", "evaluate", "--policy", "reactive",

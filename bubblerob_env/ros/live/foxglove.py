@@ -287,6 +287,11 @@ class FoxgloveBackend(LiveBackend):
         """How many client subscriptions ``topic`` has now."""
         return self._subscribers.get(topic, 0)
 
+    def watched(self) -> bool:
+        """Whether any client subscribes to any topic now."""
+        with self._lock:
+            return any(count > 0 for count in self._subscribers.values())
+
     def count_subscriber(self, topic: str, change: int) -> None:
         """A client subscribed to ``topic`` (+1) or left it (-1)."""
         with self._lock:

@@ -4,7 +4,8 @@ A :class:`~bubblerob_env.ros.live.wrapper.RosLivePublisher` on a Foxglove server
 (:class:`~bubblerob_env.ros.live.foxglove.FoxgloveBackend`): the same topics, types and stamps,
 no ROS. With a ``budget`` it publishes whole episodes only while publishing has cost at most
 that fraction of the wall time since it started (training: a few percent), so a viewer sees
-whole episodes, now and then, and the loop barely slows.
+whole episodes, now and then, and the loop barely slows; with ``watched_only`` too, only while
+a client subscribes to something (training when nobody watches: no cost at all).
 """
 
 from __future__ import annotations
@@ -63,6 +64,9 @@ class FoxglovePublisher(RosLivePublisher):
         port: Port to listen on; 0: any free one (see :attr:`url`).
         budget: Publish whole episodes only while publishing has taken at most this fraction of
             the wall time since the first reset (e.g. 0.04); ``None``: publish every episode.
+        watched_only: Publish an episode only if a client subscribes to a topic when it
+            starts (a client that connects mid-episode sees the next one from its start, with
+            the latched topics sent again on subscribing, as when the budget skips episodes).
         topics, sinks, metadata, start_time, map_resolution: As for
             :class:`~bubblerob_env.ros.live.wrapper.RosLivePublisher`.
 
@@ -82,6 +86,7 @@ class FoxglovePublisher(RosLivePublisher):
         metadata: Mapping[str, Any] | None = None,
         start_time: float | str | None = None,
         map_resolution: float = DEFAULT_RESOLUTION,
+        watched_only: bool = False,
     ) -> None:
         if budget is not None and not 0 < budget <= 1:
             raise ValueError(f"budget must be a fraction in (0, 1], got {budget!r}")
@@ -102,6 +107,7 @@ class FoxglovePublisher(RosLivePublisher):
             backend.shutdown()
             raise
         self.budget = budget
+        self.watched_only = watched_only
         self.publishing = True
         """Whether the current episode is published (always, without a budget)."""
         self.published_episodes = 0
@@ -135,12 +141,17 @@ class FoxglovePublisher(RosLivePublisher):
         if self._began is None:
             self._began = now
         elapsed = now - self._began
-        self.publishing = self.budget is None or self._spent <= self.budget * elapsed
+        within = self.budget is None or self._spent <= self.budget * elapsed
+        self.publishing = within and (not self.watched_only or self._backend_watched())
         if not self.publishing:
             self.skipped_episodes += 1
             return self._inner.reset(seed=seed, options=options)  # type: ignore[no-any-return]
         self.published_episodes += 1
         return self._timed(super().reset, seed=seed, options=options)  # type: ignore[no-any-return]
+
+    def _backend_watched(self) -> bool:
+        assert isinstance(self.backend, FoxgloveBackend)
+        return self.backend.watched()
 
     def step(self, action: NDArray[Any]) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         """Step; published if this episode is (see :attr:`publishing`)."""
