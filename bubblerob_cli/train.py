@@ -220,22 +220,38 @@ def run(args: argparse.Namespace, command: str, program: str) -> int:
         from bubblerob_cli.ray.sweep import run_sweep
 
         return run_sweep(args, overrides, out, command, program)
-    final = train(
-        args.algo,
-        args.env,
-        out,
-        timesteps=args.timesteps,
-        n_envs=args.n_envs,
-        seed=args.seed,
-        eval_freq=args.eval_freq,
-        eval_episodes=args.eval_episodes,
-        progress_bar=not args.no_progress,
-        command=command,
-        overrides=overrides,
-        vec_env=args.vec_env,
-        torch_threads=args.torch_threads,
-        foxglove=args.foxglove,
-        robots=args.robots or 8,
-    )
-    print(f"saved {final} (best model: {out / 'best_model.zip'}, logs: {out / 'tb'})")
+    return _train_one(args, overrides, out, command, program)
+
+
+def _train_one(
+    args: argparse.Namespace, overrides: dict[str, Any], out: Path, command: str, program: str
+) -> int:
+    """One run into ``out``; an ``OSError`` on the way (a full disk) is one line, exit 1."""
+    from policies.runs import BEST_MODEL
+
+    try:
+        final = train(
+            args.algo,
+            args.env,
+            out,
+            timesteps=args.timesteps,
+            n_envs=args.n_envs,
+            seed=args.seed,
+            eval_freq=args.eval_freq,
+            eval_episodes=args.eval_episodes,
+            progress_bar=not args.no_progress,
+            command=command,
+            overrides=overrides,
+            vec_env=args.vec_env,
+            torch_threads=args.torch_threads,
+            foxglove=args.foxglove,
+            robots=args.robots or 8,
+        )
+    except OSError as error:
+        where = f" ({error.filename})" if error.filename else ""
+        print(f"{program}: training stopped: {error.strerror or error}{where}", file=sys.stderr)
+        return 1
+    best = out / BEST_MODEL
+    kept = f"best model: {best}" if best.is_file() else "no best model: no evaluation ran"
+    print(f"saved {final} ({kept}, logs: {out / 'tb'})")
     return 0

@@ -223,3 +223,25 @@ def test_every_command_that_writes_has_the_one_overwrite_flag() -> None:
     for name, sub in writers.items():
         helps = [a.help for a in sub._actions if "--overwrite" in a.option_strings]
         assert helps == [OVERWRITE_HELP], name
+
+
+def test_a_full_disk_while_training_is_one_line(tmp_path: Path) -> None:
+    """RLIMIT_FSIZE (Python ignores SIGXFSZ, so a write fails): one line, exit 1, no traceback."""
+    pytest.importorskip("stable_baselines3")
+    import resource
+    import subprocess
+    import sys
+
+    def small_files() -> None:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (100_000, 100_000))
+
+    done = subprocess.run(
+        [sys.executable, "-m", "bubblerob_cli", *CASES["train --out"].argv(tmp_path, tmp_path)],
+        preexec_fn=small_files,  # noqa: PLW1509
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    lines = [line for line in done.stderr.splitlines() if line.startswith("bubblerob train: ")]
+    assert done.returncode == 1 and "Traceback" not in done.stderr, done.stderr
+    assert lines == ["bubblerob train: training stopped: File too large"], done.stderr
