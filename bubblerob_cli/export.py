@@ -9,6 +9,7 @@ from pathlib import Path
 
 from bubblerob_cli.args import HelpFormatter
 from bubblerob_cli.outputs import Output, OutputError, add_overwrite_option, check_outputs
+from bubblerob_cli.stdout_guard import guarded
 from bubblerob_env.extras import require_extra
 from policies.export_onnx import SHIPPED_MODEL, export_onnx
 
@@ -35,6 +36,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``python -m policies.export_onnx``."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    return guarded(PROG, lambda: _export(parser, args))
+
+
+def _export(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
     require_extra("train", PROG)
     if not args.model.is_file():
         parser.error(f"model {args.model} does not exist")

@@ -8,14 +8,13 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import os
 import sys
 from collections.abc import Sequence
 from importlib import metadata
 from typing import Any
 
 from bubblerob_cli.args import HelpFormatter
-from bubblerob_cli.errors import report
+from bubblerob_cli.stdout_guard import guarded
 from bubblerob_env.extras import require_extra
 
 __all__ = ["EXAMPLES", "build_parser", "main"]
@@ -138,52 +137,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         raise SystemExit(
             f"bubblerob {args.command} needs the [{extra}] extra: pip install 'bubblerob[{extra}]'"
         )
-    if sys.stdout is None:  # started with standard output closed (`bubblerob ... >&-`)
-        report(args.command, "standard output is closed: nothing could be printed")
-        return 1
-    watched = _WatchedStream(sys.stdout)
-    sys.stdout = watched
-    try:
-        result = handler(args)
-        sys.stdout.flush()
-    except BrokenPipeError:  # `bubblerob info BAG | head`: the reader left, nothing is wrong
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, watched.fileno())  # so that the flush at exit does not fail again
-        return 141  # 128 + SIGPIPE, as a shell reports it
-    except OSError as error:  # standard output full (`> /dev/full`): one line, not a traceback
-        if not watched.failed:
-            raise
-        os.dup2(os.open(os.devnull, os.O_WRONLY), watched.fileno())
-        report(args.command, f"cannot write to standard output: {error.strerror or error}")
-        return 1
-    finally:
-        sys.stdout = watched.stream
-    return int(result or 0)
-
-
-class _WatchedStream:
-    """Standard output, noting whether a write to it failed (so that error is told apart)."""
-
-    def __init__(self, stream: Any) -> None:
-        self.stream = stream
-        self.failed = False
-
-    def write(self, text: str) -> int:
-        try:
-            return int(self.stream.write(text))
-        except OSError:
-            self.failed = True
-            raise
-
-    def flush(self) -> None:
-        try:
-            self.stream.flush()
-        except OSError:
-            self.failed = True
-            raise
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self.stream, name)
+    return guarded(f"bubblerob {args.command}", lambda: handler(args))
 
 
 if __name__ == "__main__":

@@ -17,6 +17,7 @@ from bubblerob_cli.args import HelpFormatter
 from bubblerob_cli.foxglove_view import add_foxglove_option, quiet_sdk_log
 from bubblerob_cli.outputs import Output, add_overwrite_option, check_outputs
 from bubblerob_cli.ray.sweep import add_sweep_arguments
+from bubblerob_cli.stdout_guard import guarded
 from bubblerob_env.extras import require_extra
 from train.checks import check_hyperparams, check_train_arguments, parse_overrides
 from train.envs import DEFAULT_VEC_ENV, VEC_ENVS
@@ -136,7 +137,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``python -m train``."""
     args = build_parser().parse_args(argv)
     command = shlex.join(["python", "-m", "train", *(sys.argv[1:] if argv is None else argv)])
-    return run(args, command, "python -m train")
+    return guarded("python -m train", lambda: run(args, command, "python -m train"))
 
 
 def _checked(args: argparse.Namespace, out: Path) -> dict[str, Any]:

@@ -245,3 +245,36 @@ def test_a_full_disk_while_training_is_one_line(tmp_path: Path) -> None:
     lines = [line for line in done.stderr.splitlines() if line.startswith("bubblerob train: ")]
     assert done.returncode == 1 and "Traceback" not in done.stderr, done.stderr
     assert lines == ["bubblerob train: training stopped: File too large"], done.stderr
+
+
+@pytest.mark.parametrize("stdout", ["full", "closed"])
+def test_export_reports_standard_output_in_one_line(stdout: str, tmp_path: Path) -> None:
+    """``python -m policies.export_onnx`` (as ``python -m train``) guards standard output too."""
+    import os
+    import subprocess
+    import sys
+
+    target = open("/dev/full", "w") if stdout == "full" else None  # noqa: SIM115
+    out = tmp_path / "p.onnx"
+    try:
+        done = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "policies.export_onnx",
+                *CASES["export --out"].argv(tmp_path, tmp_path),
+            ],
+            stdout=target if target is not None else subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+            preexec_fn=None if target is not None else (lambda: os.close(1)),  # noqa: PLW1509
+            timeout=300,
+            cwd=ROOT,
+        )
+    finally:
+        if target is not None:
+            target.close()
+    lines = [line for line in done.stderr.splitlines() if "Warning" not in line]
+    assert done.returncode == 1 and len(lines) == 1, done.stderr
+    assert lines[0].startswith("python -m policies.export_onnx: ") and "standard output" in lines[0]
+    assert out.exists() == (stdout == "full")  # closed: refused before the export
