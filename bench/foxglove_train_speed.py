@@ -1,6 +1,6 @@
 """Training steps/s with and without ``train --foxglove`` (issue #39: at most 5% slower).
 
-Usage: ``python bench/foxglove_train_speed.py [--pairs N] [--timesteps T] [--client]``
+Usage: ``python bench/foxglove_train_speed.py [--pairs N] [--timesteps T] [--client] [--budget B]``
 
 Each pair trains PPO on BubbleRob-v0 twice in this process with the project's hyperparameters
 (8 envs, ``--vec-env dummy``, ``--torch-threads 1``, no evaluation inside the timed part): once
@@ -14,7 +14,8 @@ machine's load.
 Foxglove itself would be) speaks Foxglove's WebSocket protocol (``websockets``, subprotocol
 ``foxglove.sdk.v1``), subscribes to every channel the server advertises and reads every message.
 Without it nobody is connected (what ``train --foxglove`` costs when nobody watches). Neither
-needs Node.
+needs Node. ``--budget``: the publisher's budget instead of ``train.envs.WATCH_BUDGET`` (to try
+another).
 """
 
 from __future__ import annotations
@@ -126,7 +127,10 @@ def report(results: list[tuple[float, float]], client: bool) -> list[str]:
     slowdowns = sorted(plain / watched for plain, watched in results)
     median = statistics.median(slowdowns)
     verdict = "PASS" if median <= TARGET else "FAIL"
+    from train.envs import WATCH_BUDGET
+
     viewer = "a subscribed client connected" if client else "no client connected"
+    viewer += f", budget {WATCH_BUDGET}"
     load = " ".join(f"{v:.2f}" for v in os.getloadavg())
     now = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
     return [
@@ -148,6 +152,7 @@ def main(argv: list[str] | None = None) -> int:
         "--timesteps", type=int, default=16384, help="timesteps of each run (16384)"
     )
     parser.add_argument("--client", action="store_true", help="a viewer subscribes to everything")
+    parser.add_argument("--budget", type=float, help="the publisher's budget (WATCH_BUDGET)")
     parser.add_argument("--quick", action="store_true", help="smoke test: 1 pair of 4096 steps")
     args = parser.parse_args(argv)
     if args.quick:
@@ -158,6 +163,10 @@ def main(argv: list[str] | None = None) -> int:
     from bubblerob_cli.foxglove_view import quiet_sdk_log
 
     quiet_sdk_log("bench")
+    if args.budget is not None:
+        import train.envs
+
+        train.envs.WATCH_BUDGET = args.budget  # WatchFirst reads it when it makes the env
     start = time.perf_counter()
     results = measure(args.pairs, args.timesteps, args.client, warm_up=not args.quick)
     print("\n".join(report(results, args.client)))
