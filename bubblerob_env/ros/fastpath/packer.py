@@ -55,7 +55,7 @@ class Packer:
             layout, template, slots, names
         )
         """``pack_one(values, log_ns, action_log_ns)``: one frame's bytes."""
-        self._many = _BatchLayout(self.items, self.size)
+        self._many: _BatchLayout | None = None  # made on first use: /detections never need it
 
     def pack_many(self, columns: Mapping[str, NDArray[Any]], count: int) -> NDArray[np.uint8]:
         """``count`` frames, one after the other, as a flat ``uint8`` array.
@@ -63,6 +63,8 @@ class Packer:
         ``columns`` holds every slot's values by slot name, one row per frame: scalars as 1-D
         arrays, array slots as 2-D arrays of their serialised element type.
         """
+        if self._many is None:
+            self._many = _BatchLayout(self.items, self.size)
         return self._many.pack(columns, count)
 
 
