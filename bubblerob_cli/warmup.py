@@ -21,11 +21,16 @@ __all__ = ["compile_kernels", "main"]
 
 
 def compile_kernels() -> None:
-    """Step one env with drifting odometry, segment a blank frame, build a likelihood field."""
+    """Step one env with drifting odometry and a batch, segment a blank frame, build a field."""
     env = gym.make("BubbleRob-v0", odometry_noise=0.1, max_episode_steps=2)
     env.reset(seed=0)
     env.step(np.zeros(2, dtype=np.float32))
     env.close()
+    # The batch steps through numba's dispatcher (the single env through step_packed).
+    envs = gym.make_vec("BubbleRob-v0", num_envs=2, vectorization_mode="vector_entry_point")
+    envs.reset(seed=0)
+    envs.step(np.zeros((2, 2), dtype=np.float32))
+    envs.close()
     # The recogniser's kernels on a frame of the camera's types (no rendering needed here).
     codes, value = pixel_codes(np.zeros((4, 4, 3), dtype=np.uint8), np.zeros(3))
     components(codes, value, 4)
