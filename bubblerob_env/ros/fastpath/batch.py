@@ -60,7 +60,9 @@ class FrameBatch:
         self._rows = np.empty((capacity, self._at["laser"].stop), dtype=np.float64)
         self._count = 0
         self._scalars: list[tuple[Any, ...]] = []
-        self._images: list[bytes] = []
+        camera = specs.camera
+        pixels = 0 if camera is None else camera.height * camera.width * 3
+        self._images = np.empty((capacity if camera is not None else 0, pixels), dtype=np.uint8)
 
     def __len__(self) -> int:
         return self._count
@@ -90,9 +92,8 @@ class FrameBatch:
             stamp_ns, seq, action_stamp_ns, float(reward), bool(terminated), bool(truncated),
             bool(info["proximity_triggered"]), float(info["sim_time"]),
         )  # fmt: skip
-        image = None
-        if self._camera:
-            image = np.ascontiguousarray(obs["camera"], dtype=np.uint8).tobytes()
+        if self._camera:  # into the next free row: the batch holds it only once counted
+            self._images[self._count] = np.ravel(obs["camera"])
         odometry = (
             (info["odom_x"], info["odom_y"], info["odom_yaw"]) if self._odometry else _NO_ODOMETRY
         )
@@ -105,8 +106,6 @@ class FrameBatch:
         np.concatenate(parts, out=self._rows[self._count], casting="unsafe")
         self._count += 1  # the frame is complete: only now does the batch hold it
         self._scalars.append(scalars)
-        if image is not None:
-            self._images.append(image)
         return self._count >= self.capacity
 
     def columns(self) -> dict[str, NDArray[Any]]:
@@ -120,7 +119,8 @@ class FrameBatch:
         stamp, seq, action_stamp, reward, terminated, truncated, triggered, sim_time = zip(
             *self._scalars, strict=True
         )
-        images, self._count, self._scalars, self._images = self._images, 0, [], []
+        images = self._images[: self._count]
+        self._count, self._scalars = 0, []
         stamps = np.array(stamp, dtype=np.int64)
         action_stamps = np.array(action_stamp, dtype=np.int64)
         specs = self.specs
@@ -162,9 +162,7 @@ class FrameBatch:
             ranges = rows[:, at["laser"]].astype("<f4")
             columns["ranges"] = rep117(ranges, specs.laser.range_min, specs.laser.range_max)
         if specs.camera is not None:
-            columns["image"] = np.frombuffer(b"".join(images), dtype=np.uint8).reshape(
-                len(stamps), -1
-            )
+            columns["image"] = images  # a writable view: the recogniser takes it as it is
         return columns
 
     def _odometry_columns(
