@@ -14,6 +14,7 @@ import gymnasium as gym
 
 from policies.base import Policy
 from policies.builtin import BUILTIN_POLICIES, NAVIGATION_POLICIES, builtin_policy
+from policies.crowd_policy import CROWD_MODEL, one_robot_env
 from policies.observations import FlatObservationPolicy, PolicyEnvMismatchError, dict_view
 from policies.onnx_policy import load_onnx
 from policies.runs import TRAINED_DIR
@@ -29,6 +30,7 @@ __all__ = [
 SHIPPED_POLICIES = {
     "ppo": TRAINED_DIR / "ppo_bubblerob_v0.onnx",
     "nav": TRAINED_DIR / "nav" / "ppo_bubblerob_nav_v0.onnx",
+    "crowd": CROWD_MODEL,
 }
 """Trained policies shipped with the package, exported to ONNX from the SB3 ``.zip`` beside them
 (``python -m policies.export_onnx``) and run with onnxruntime, without torch. ``ppo`` was trained
@@ -52,7 +54,9 @@ def load_policy(
             exports do it inside the graph).
         env: The env (or a wrapper of it) the policy will act in: its action type, speed limits
             and laser geometry shape the built-in controllers' actions, and a trained policy is
-            checked against the env it was trained for.
+            checked against the env it was trained for. A world of
+            ``parallel_env(task="nav")`` stands for one of its robots' Nav env (``crowd``,
+            ``navigator`` ...; ``predict`` takes one robot's observation, or a row per robot).
         seed: Seed of the ``random`` policy.
 
     Raises:
@@ -61,6 +65,7 @@ def load_policy(
             laser rays, camera) differs from ``env``.
     """
     name = str(name_or_path)
+    env = one_robot_env(env)  # a world of parallel_env(task="nav"): one robot's Nav env
     if name in (*BUILTIN_POLICIES, *NAVIGATION_POLICIES) and name not in SHIPPED_POLICIES:
         return builtin_policy(name, env, seed)
     space, layout = (None, None) if env is None else dict_view(env, name)
