@@ -15,7 +15,7 @@ import numpy as np
 
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
 from bubblerob_env.localisation.field import compile_field_kernel
-from bubblerob_env.vision.segment import components, pixel_codes
+from bubblerob_env.vision.segment import components, frame_objects, pixel_codes
 
 __all__ = ["compile_kernels", "main"]
 
@@ -34,6 +34,8 @@ def compile_kernels() -> None:
     # The recogniser's kernels on a frame of the camera's types (no rendering needed here).
     codes, value = pixel_codes(np.zeros((4, 4, 3), dtype=np.uint8), np.zeros(3))
     components(codes, value, 4)
+    # The batched recogniser of a recording (a writable frame batch, as FrameBatch gathers it).
+    frame_objects(np.zeros((1, 4, 4, 3), dtype=np.uint8), np.zeros(3), 8, 2)
     compile_field_kernel()
 
 
