@@ -84,18 +84,38 @@ def test_evaluate_robots_on_a_nav_env_prints_the_crowd_table(
 ) -> None:
     per_robot = tmp_path / "crowd.json"
     argv = [
-        "evaluate", "--env", "BubbleRobNav-v0", "--policy", "navigator", "--robots", "3",
+        "evaluate", "--env", "BubbleRobNav-v0", "--policy", "navigator", "--policy",
+        "crowd_navigator", "--policy", "crowd", "--robots", "3",
         "--scenario", "circle", "--circle-jitter", "0.05", "--episodes", "2", "--split", "test",
-        "--env-kwargs", '{"max_episode_steps": 40, "laser_num_rays": 36}',
+        "--env-kwargs", '{"max_episode_steps": 40}',
         "--per-episode", str(per_robot),
     ]  # fmt: skip
     assert bubblerob(argv) == 0
-    header, row = capsys.readouterr().out.splitlines()[:2]
+    header, *rows = capsys.readouterr().out.splitlines()[:4]
     assert header.split()[:5] == ["policy", "robots", "scenario", "robot-episodes", "success"]
-    assert "extra time s" in header and row.split()[:4] == ["navigator", "3", "circle", "6"]
-    records = json.loads(per_robot.read_text())["navigator"]
-    assert len(records) == 6 and all(r["outcome"] == "timeout" for r in records)  # 2 s: none
+    assert "extra time s" in header
+    assert [row.split()[:4] for row in rows] == [
+        [name, "3", "circle", "6"] for name in ("navigator", "crowd_navigator", "crowd")
+    ]
+    records = json.loads(per_robot.read_text())
+    for name in ("navigator", "crowd_navigator", "crowd"):  # 2 s: no robot gets there
+        assert [r["outcome"] for r in records[name]] == ["timeout"] * 6
     with pytest.raises(SystemExit) as exit_:
         bubblerob([*argv[:-2], "--circle-jitter", "2"])
     assert exit_.value.code == 2
     assert "circle_jitter 2.0 m" in capsys.readouterr().err
+
+
+def test_python_m_train_vec_env_crowd_trains_on_the_mix(tmp_path: Path) -> None:
+    from bubblerob_cli.train import main
+
+    out = tmp_path / "run"
+    argv = [
+        "--env", "BubbleRobNav-v0", "--vec-env", "crowd", "--n-envs", "1", "--timesteps", "104",
+        "--set", "n_steps=2", "--set", "batch_size=104", "--set", "n_epochs=1",
+        "--set", "callback=null", "--set", "env_kwargs={laser_num_rays: 36}",
+        "--eval-freq", "1000", "--eval-episodes", "1", "--no-progress", "--out", str(out),
+    ]  # fmt: skip
+    assert main(argv) == 0
+    settings = json.loads((out / "settings.json").read_text())
+    assert settings["vec_env"] == "crowd" and (out / "model.zip").is_file()
