@@ -123,6 +123,7 @@ RESULTS = {
     "BubbleRobNav-v0": "nav_bubblerob_test.json",
     "PioneerP3DXNav-v0": "nav_pioneer_test.json",
     "20-30 obstacles": "nav_crowded_test.json",
+    "BubbleRobNav-v0, 1000 episodes": "nav_policy_test.json",
 }
 
 

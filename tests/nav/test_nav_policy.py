@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -22,6 +24,7 @@ RUN = ROOT / "policies" / "trained" / "nav"
 ONNX = RUN / "ppo_bubblerob_nav_v0.onnx"
 ZIP = RUN / "ppo_bubblerob_nav_v0.zip"
 TOLERANCE = 1e-5
+RESULTS = Path("docs") / "results" / "nav_policy_test.json"
 
 _TORCH_FREE = """
 import sys
@@ -151,3 +154,41 @@ def test_imitation_warm_start_brings_the_network_to_the_navigators_actions(tmp_p
     assert after < 0.6 * before, (before, after)  # measured: 0.88 before, 0.49 after
     with pytest.raises(ValueError, match="rounds must be an int >= 1"):
         ImitationWarmStart(rounds=0)
+
+
+def _readme_nav_command() -> str:
+    readme = (ROOT / "README.md").read_text()
+    section = readme.split("## Go somewhere: navigation\n", 1)[1].split("\n## ", 1)[0]
+    blocks = re.findall(r"```bash\n(.*?)```", section, flags=re.DOTALL)
+    (command,) = [line for b in blocks for line in b.splitlines() if "--policy nav " in line]
+    return command
+
+
+def test_readme_nav_command_reproduces_its_episodes(tmp_path):
+    # README's command on its first 2 test episodes (all 1000 take minutes), then 3 more spread
+    # over the 1000, in process: each equals its stored record.
+    from policies.evaluation import evaluate
+
+    command = _readme_nav_command()
+    assert "--episodes 1000" in command and "--split test" in command
+    assert f"--per-episode {RESULTS}" in command
+    short = command.replace("--episodes 1000", "--episodes 2")
+    short = short.replace(str(RESULTS), str(tmp_path / "first.json"))
+    env = dict(os.environ, PATH=f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}")
+    result = subprocess.run(
+        ["bash", "-c", short], cwd=ROOT, env=env, capture_output=True, text=True, timeout=300,
+        check=False,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    stored = json.loads((ROOT / RESULTS).read_text())
+    assert set(stored) == {"nav", "navigator"}
+    for policy, records in json.loads((tmp_path / "first.json").read_text()).items():
+        assert records == stored[policy][:2]
+    picked = stored["nav"][137::400]  # 3 episodes, picked by position, not by outcome
+    again = [
+        r for p in picked for r in evaluate("nav", 1, p["seed"], "BubbleRobNav-v0").per_episode
+    ]
+    for measured, expected in zip(again, picked, strict=True):
+        key = ("seed", "outcome", "length")
+        assert [measured[k] for k in key] == [expected[k] for k in key]
+        assert measured["spl"] == pytest.approx(expected["spl"], abs=1e-9)
