@@ -26,6 +26,10 @@ from numpy.typing import NDArray
 from bubblerob_env.core.mjabi import MJ_MULTIRAY, MJ_STEP1, MJ_STEP2, as_pointer
 from bubblerob_env.core.raycast import cast_prisms, world_rays
 
+# numba caches this file's functions by this file's text alone, and they contain the raycast
+# and mjabi functions they call: edit this line whenever those change, or a cache made before
+# keeps the old code (last: raycast's unrotated geoms, 2026-11-28).
+
 __all__ = [
     "CFG",
     "CFG_SIZE",

@@ -346,6 +346,14 @@ def _cast_window(
     ssz = s0 * s0 + s1 * s1 + s2 * s2 if is_box else s0 * s0 + s1 * s1
     c = dif0 * dif0 + dif1 * dif1 + dif2 * dif2 - ssz
     sphere_test = not c < -1e-12
+    # An unrotated geom (the walls): the ray's direction in its frame is its world direction.
+    # MuJoCo's products give the same numbers (1 * w plus zeros), but for the sign of a zero,
+    # which no test below can see (zeros fail |v| > mjMINVAL; p + sol * 0 is p).
+    identity = (
+        mat[0] == 1.0 and mat[4] == 1.0 and mat[8] == 1.0
+        and mat[1] == 0.0 and mat[2] == 0.0 and mat[3] == 0.0
+        and mat[5] == 0.0 and mat[6] == 0.0 and mat[7] == 0.0
+    )  # fmt: skip
     for k in range(start, stop):
         r = k
         if r < 0:
@@ -358,9 +366,12 @@ def _cast_window(
             b = w0 * dif0 + w1 * dif1 + w2 * dif2
             if _ray_quad(a, b, c) < 0:
                 continue
-        v0 = mat[0] * w0 + mat[3] * w1 + mat[6] * w2
-        v1 = mat[1] * w0 + mat[4] * w1 + mat[7] * w2
-        v2 = mat[2] * w0 + mat[5] * w1 + mat[8] * w2
+        if identity:
+            v0, v1, v2 = w0, w1, w2
+        else:
+            v0 = mat[0] * w0 + mat[3] * w1 + mat[6] * w2
+            v1 = mat[1] * w0 + mat[4] * w1 + mat[7] * w2
+            v2 = mat[2] * w0 + mat[5] * w1 + mat[8] * w2
         if is_box:
             x = _box_faces(p0, p1, p2, v0, v1, v2, s0, s1, s2)
         else:

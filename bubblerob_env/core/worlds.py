@@ -45,6 +45,10 @@ from bubblerob_env.core.kernel import (
 from bubblerob_env.core.mjabi import MJ_MULTIRAY, MJ_STEP1, MJ_STEP2, as_pointer
 from bubblerob_env.core.raycast import cast_cylinders, cast_prisms, world_rays
 
+# numba caches this file's functions by this file's text alone, and they contain the raycast
+# and mjabi functions they call: edit this line whenever those change, or a cache made before
+# keeps the old code (last: raycast's unrotated geoms, 2026-11-28).
+
 __all__ = ["NO_CONTACT", "OBSTACLE_CONTACT", "RobotIds", "WorldBatch", "WorldTables"]
 
 NO_CONTACT = -1
