@@ -20,7 +20,7 @@ from bubblerob_cli.ray.sweep import add_sweep_arguments
 from bubblerob_cli.stdout_guard import guarded
 from bubblerob_env.extras import require_extra
 from train.checks import check_hyperparams, check_train_arguments, parse_overrides
-from train.envs import DEFAULT_VEC_ENV, VEC_ENVS
+from train.envs import DEFAULT_VEC_ENV, VEC_ENVS, WATCH_BUDGET
 from train.trainer import DEFAULT_TORCH_THREADS, train
 from train.validation import check_training_seeds
 from train.zoo import ALGOS, load_hyperparams, reject_project_settings
@@ -129,7 +129,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="override a hyperparameter (YAML value), e.g. --set n_steps=512",
     )
     parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
-    add_foxglove_option(parser)  # the first training env, within 4% of the wall time
+    add_foxglove_option(parser)  # the first training env, within WATCH_BUDGET of the wall time
     add_sweep_arguments(parser)  # --ray, --seeds (Ray is imported only to run)
 
 
@@ -212,7 +212,7 @@ def run(args: argparse.Namespace, command: str, program: str) -> int:
         host, port = args.foxglove
         print(
             f"{program}: the first training env goes to Foxglove at ws://{host}:{port} (whole "
-            "episodes, within 4% of the wall time)",
+            f"episodes, within {WATCH_BUDGET:.1%} of the wall time)",
             flush=True,
         )
     if args.overwrite:  # every option checked: the earlier run goes only now
