@@ -12,6 +12,7 @@ import argparse
 import json
 
 from bubblerob_cli.errors import fail
+from bubblerob_cli.outputs import write_output
 from bubblerob_env.extras import MissingExtraError
 
 __all__ = ["add_robots_arguments", "run_robots"]
@@ -86,7 +87,7 @@ def run_robots(args: argparse.Namespace) -> int:
         print(format_multi_table(results, markdown=args.markdown))
     if args.per_episode is not None:
         records = {r.policy: list(r.per_robot) for r in results}
-        args.per_episode.write_text(
+        text = (
             "{\n"
             + ",\n".join(
                 f"{json.dumps(name)}: [\n" + ",\n".join(json.dumps(e) for e in rows) + "\n]"
@@ -94,6 +95,8 @@ def run_robots(args: argparse.Namespace) -> int:
             )
             + "\n}\n"
         )
+        # A full disk (or a folder gone) is one line, exit 1: the table is printed already.
+        write_output("evaluate", "--per-episode", args.per_episode, lambda p: p.write_text(text))
         count = sum(len(rows) for rows in records.values())
         print(f"wrote {args.per_episode}: {count} robot-episodes")
     return 0

@@ -95,6 +95,19 @@ def test_step_and_reset_after_close_raise():
         env.reset(seed=0)
 
 
+def test_step_before_reset_is_one_line_and_the_env_still_resets():
+    from bubblerob_env.env import BubbleRobEnv
+
+    env = BubbleRobEnv()  # unwrapped: Gymnasium's OrderEnforcing would answer first
+    with pytest.raises(
+        RuntimeError, match=r"^step\(\) called before reset\(\): reset the env first$"
+    ):
+        env.step(np.zeros(2, np.float32))
+    env.reset(seed=0)
+    env.step(np.zeros(2, np.float32))
+    env.close()
+
+
 def test_diverged_physics_truncates_with_the_reason():
     env = gym.make("BubbleRob-v0")
     env.reset(seed=0)

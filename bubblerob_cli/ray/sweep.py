@@ -17,6 +17,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
+from bubblerob_cli.outputs import write_output
 from bubblerob_env.extras import require_extra
 from policies.protocol import VALIDATION
 from policies.runs import BEST_MODEL, SWEEP_FILE, run_env_kwargs
@@ -172,4 +173,6 @@ def _report(results: list[Any], runs: list[Path], seeds: list[int], out: Path) -
         ],
         "best": {"seed": seeds[best], "model": results[best].policy},
     }
-    (out / SWEEP_FILE).write_text(json.dumps(record, indent=2) + "\n")
+    text = json.dumps(record, indent=2) + "\n"
+    # A full disk at the end of the sweep is one line, exit 1: the runs' own folders are written.
+    write_output("train", "--out", out / SWEEP_FILE, lambda path: path.write_text(text))

@@ -278,3 +278,29 @@ def test_export_reports_standard_output_in_one_line(stdout: str, tmp_path: Path)
     assert done.returncode == 1 and len(lines) == 1, done.stderr
     assert lines[0].startswith("python -m policies.export_onnx: ") and "standard output" in lines[0]
     assert out.exists() == (stdout == "full")  # closed: refused before the export
+
+
+def test_a_full_disk_under_evaluate_robots_per_episode_is_one_line(tmp_path: Path) -> None:
+    """The several-robot table is printed, then the --per-episode write fails: one line, exit 1."""
+    pytest.importorskip("pettingzoo")
+    import resource
+    import subprocess
+    import sys
+
+    def small_files() -> None:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (1000, 1000))
+
+    out = tmp_path / "robots.json"
+    argv = ["evaluate", "--robots", "4", "--policy", "laser", "--episodes", "3"]
+    done = subprocess.run(
+        [sys.executable, "-m", "bubblerob_cli", *argv, "--per-episode", str(out)],
+        preexec_fn=small_files,  # noqa: PLW1509
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert done.returncode == 1 and "Traceback" not in done.stderr, done.stderr
+    assert done.stderr.strip().splitlines()[-1] == (
+        f"bubblerob evaluate: cannot write --per-episode {out}: File too large"
+    ), done.stderr
+    assert "laser" in done.stdout  # the table came first
