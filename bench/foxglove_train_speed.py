@@ -35,13 +35,22 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 TARGET = 1.05
+TALLY = Path(tempfile.gettempdir()) / f"bubblerob-fox-bench-{os.getpid()}.count"
 _CLIENT = r"""
 import asyncio, json, sys, websockets
 
+received = 0
+
 async def watch(url):
+    global received
     async with websockets.connect(url, subprotocols=["foxglove.sdk.v1"], max_size=None) as ws:
         subscribed = set()
         async for message in ws:
+            if not isinstance(message, str):  # a message of a subscribed channel
+                received += 1
+                if received % 100 == 1:
+                    with open(sys.argv[2], "w") as tally:
+                        tally.write(str(received))
             if isinstance(message, str):
                 op = json.loads(message)
                 if op.get("op") == "advertise":
@@ -98,7 +107,7 @@ def measure(
     viewer = None
     if client:
         url = f"ws://127.0.0.1:{port}"
-        viewer = subprocess.Popen([sys.executable, "-c", _CLIENT, url])
+        viewer = subprocess.Popen([sys.executable, "-c", _CLIENT, url, str(TALLY)])
     try:
         if warm_up:  # imports, numba's cache, torch's first calls
             _train_rate(None, 4096, 0)
@@ -120,6 +129,12 @@ def measure(
         if viewer is not None:
             viewer.terminate()
             viewer.wait()
+            # A slowdown with a viewer means something only if the viewer got the episodes.
+            got = int(TALLY.read_text()) if TALLY.exists() else 0
+            TALLY.unlink(missing_ok=True)
+            print(f"the client received at least {got} messages over the Foxglove runs")
+            if got == 0:
+                raise SystemExit("FAIL: the client received nothing: no slowdown was measured")
 
 
 def report(results: list[tuple[float, float]], client: bool) -> list[str]:
