@@ -17,9 +17,50 @@ from typing import Any
 import pytest
 from live_support import ClientServer, NodeProcess, stop, wait_for
 
-__all__ = ["Master", "Node", "SKIP_REASON", "free_port", "requires_ros", "stop", "wait_for"]
+from bubblerob_env.ros.live.backend import LiveBackend, Publish, RawCallback
+
+__all__ = [
+    "InProcessBackend",
+    "Master",
+    "Node",
+    "SKIP_REASON",
+    "free_port",
+    "requires_ros",
+    "stop",
+    "wait_for",
+]
 
 HERE = Path(__file__).resolve().parent
+
+
+class InProcessBackend(LiveBackend):
+    """A ROS 1 backend in the test's own process: what the node publishes is kept per topic
+    (``sent``), its subscriptions are handed to the test (``callbacks``), its log is ``lines``."""
+
+    ros_version = 1
+    distro = "noetic"
+
+    def __init__(self) -> None:
+        self.sent: dict[str, list[bytes]] = {}
+        self.callbacks: dict[str, RawCallback] = {}
+        self.lines: list[str] = []
+
+    def advertise(self, topic: str, msgtype: str, latched: bool = False) -> Publish:
+        return lambda data: self.sent.setdefault(topic, []).append(bytes(data))
+
+    def subscribe(self, topic: str, msgtype: str, callback: RawCallback) -> None:
+        self.callbacks[topic] = callback
+
+    def ok(self) -> bool:
+        return True
+
+    def shutdown(self, reason: str = "done") -> None:
+        pass
+
+    def log(self, level: str, text: str) -> None:
+        self.lines.append(text)
+
+
 CLIENT = HERE / "ros_client.py"
 DEBIAN_PACKAGES = (
     "python3-rospy python3-rosmaster python3-rostopic python3-rosbag python3-roslaunch "

@@ -9,33 +9,9 @@ import struct
 
 import gymnasium as gym
 import numpy as np
+from live_helpers import InProcessBackend
 
-from bubblerob_env.ros.live.backend import LiveBackend, Publish, RawCallback
 from bubblerob_env.ros.live.node import SimNode
-
-
-class Backend(LiveBackend):
-    ros_version = 1
-    distro = "noetic"
-
-    def __init__(self) -> None:
-        self.callbacks: dict[str, RawCallback] = {}
-        self.warnings: list[str] = []
-
-    def advertise(self, topic: str, msgtype: str, latched: bool = False) -> Publish:
-        return lambda data: None
-
-    def subscribe(self, topic: str, msgtype: str, callback: RawCallback) -> None:
-        self.callbacks[topic] = callback
-
-    def ok(self) -> bool:
-        return True
-
-    def shutdown(self, reason: str = "done") -> None:
-        pass
-
-    def log(self, level: str, text: str) -> None:
-        self.warnings.append(text)
 
 
 def _twist(linear: float, angular: float) -> bytes:
@@ -43,7 +19,7 @@ def _twist(linear: float, angular: float) -> bytes:
 
 
 def test_fuzzed_commands_never_kill_the_node_and_the_action_stays_finite():
-    backend = Backend()
+    backend = InProcessBackend()
     node = SimNode(gym.make("BubbleRob-v0", action_type="wheels"), backend)
     node.publisher.reset(seed=0)
     rng = np.random.default_rng(0)
@@ -62,11 +38,11 @@ def test_fuzzed_commands_never_kill_the_node_and_the_action_stays_finite():
             action = node.state.action(node.sim_time)
             assert np.all(np.isfinite(action)) and np.all(np.abs(action) <= 1.0), (raw, action)
             node.step_once()
-    assert backend.warnings  # rejected ones are said, not raised
+    assert backend.lines  # rejected ones are said, not raised
 
 
 def test_a_huge_twist_drives_at_full_speed_in_its_direction():
-    backend = Backend()
+    backend = InProcessBackend()
     node = SimNode(gym.make("BubbleRob-v0", action_type="wheels"), backend)
     node.publisher.reset(seed=0)
     backend.callbacks["/cmd_vel"](_twist(1e308, 0.0), None, "/user")

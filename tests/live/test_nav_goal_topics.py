@@ -12,39 +12,14 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from live_helpers import InProcessBackend
 
-from bubblerob_env.ros.live import LiveBackend, RosLivePublisher
-from bubblerob_env.ros.live.backend import Publish, RawCallback
+from bubblerob_env.ros.live import RosLivePublisher
 from bubblerob_env.ros.live.navigation import GOAL_INPUT, LiveNavigation
 from bubblerob_env.ros.messages.distros import deserialize, serialize, typestore
 
 DISTRO = "noetic"
 GOAL_TYPE = "geometry_msgs/msg/PoseStamped"
-
-
-class Backend(LiveBackend):
-    ros_version = 1
-    distro = DISTRO
-
-    def __init__(self) -> None:
-        self.sent: dict[str, list[bytes]] = {}
-        self.callbacks: dict[str, RawCallback] = {}
-        self.lines: list[str] = []
-
-    def advertise(self, topic: str, msgtype: str, latched: bool = False) -> Publish:
-        return lambda data: self.sent.setdefault(topic, []).append(bytes(data))
-
-    def subscribe(self, topic: str, msgtype: str, callback: RawCallback) -> None:
-        self.callbacks[topic] = callback
-
-    def ok(self) -> bool:
-        return True
-
-    def shutdown(self, reason: str = "done") -> None:
-        pass
-
-    def log(self, level: str, text: str) -> None:
-        self.lines.append(text)
 
 
 class Filter:
@@ -69,8 +44,8 @@ def goal_bytes(x: float, y: float, frame: str) -> bytes:
     return serialize(DISTRO, types[GOAL_TYPE](header=header, pose=pose), GOAL_TYPE)
 
 
-def started() -> tuple[Backend, LiveNavigation, list[tuple[str, str, str]]]:
-    backend = Backend()
+def started() -> tuple[InProcessBackend, LiveNavigation, list[tuple[str, str, str]]]:
+    backend = InProcessBackend()
     env = gym.make("BubbleRobNav-v0", num_obstacles=[0, 0], start_pose=[0.0, -1.4, 0.0])
     publisher = RosLivePublisher(env, backend, start_time=1_700_000_000)
     warned: list[tuple[str, str, str]] = []
@@ -119,7 +94,7 @@ def test_bad_goals_are_one_warning_each_and_change_nothing():
 def test_with_a_driver_wheel_commands_are_unused_and_said_so_once():
     from bubblerob_env.ros.live.node import NodeConfig, SimNode
 
-    backend = Backend()
+    backend = InProcessBackend()
     env = gym.make("BubbleRobNav-v0", num_obstacles=[0, 0], action_type="wheels")
     seen: list[Any] = []
 
