@@ -86,30 +86,6 @@ def pixel_codes(
 
 
 @njit(cache=True, nogil=True)
-def _joins(
-    labels: NDArray[np.int32],
-    codes: NDArray[np.uint8],
-    value: NDArray[np.uint8],
-    v: int,
-    u: int,
-    code: int,
-    wall_code: int,
-    level: int,
-) -> bool:  # pragma: no cover - numba
-    """Whether pixel ``(v, u)`` joins the component being grown (``code``, at ``level``).
-
-    The one rule of both flood fills (:func:`components` and :func:`frame_objects`): inside the
-    frame, not labelled yet, the same code, and for walls the same brightness level.
-    """
-    height, width = codes.shape
-    if v < 0 or v >= height or u < 0 or u >= width:
-        return False
-    if labels[v, u] >= 0 or codes[v, u] != code:
-        return False
-    return code != wall_code or value[v, u] == level
-
-
-@njit(cache=True, nogil=True)
 def components(
     codes: NDArray[np.uint8], value: NDArray[np.uint8], wall_code: int
 ) -> tuple[NDArray[np.int32], NDArray[np.int64], NDArray[np.int64], NDArray[np.bool_]]:
@@ -150,7 +126,11 @@ def components(
             levels[count, value[v, u]] = True
             for dv, du in ((-1, 0), (1, 0), (0, -1), (0, 1)):
                 nv, nu = v + dv, u + du
-                if not _joins(labels, codes, value, nv, nu, code, wall_code, value[v, u]):
+                if nv < 0 or nv >= height or nu < 0 or nu >= width:
+                    continue
+                if labels[nv, nu] >= 0 or codes[nv, nu] != code:
+                    continue
+                if code == wall_code and value[nv, nu] != value[v, u]:
                     continue
                 labels[nv, nu] = count
                 stack[top] = nv * width + nu
@@ -220,7 +200,11 @@ def frame_objects(
                     lowest, highest = min(lowest, level), max(highest, level)
                 for dv, du in ((-1, 0), (1, 0), (0, -1), (0, 1)):
                     nv, nu = v + dv, u + du
-                    if not _joins(labels, codes, value, nv, nu, code, wall_code, value[v, u]):
+                    if nv < 0 or nv >= height or nu < 0 or nu >= width:
+                        continue
+                    if labels[nv, nu] >= 0 or codes[nv, nu] != code:
+                        continue
+                    if code == wall_code and value[nv, nu] != value[v, u]:
                         continue
                     labels[nv, nu] = label
                     stack_v[top], stack_u[top] = nv, nu
