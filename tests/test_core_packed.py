@@ -1,5 +1,5 @@
-"""The single env's fast step (issue #40 item 4): the kernel bound to a table of addresses, and
-MuJoCo's sensors off in the substeps before the last.
+"""The single env's fast step (issue #40 item 4): the kernel bound to a table of addresses,
+MuJoCo's sensors off in the substeps before the last, and MuJoCo's timers off in the step.
 
 Oracles: numba's own dispatch of the same kernel, MuJoCo's Python API stepping a copy of the
 robot's ``mjData`` substep by substep with every sensor on, and ``model.opt`` as the bindings
@@ -19,7 +19,7 @@ import pytest
 from bubblerob_env import BubbleRobEnv
 from bubblerob_env.core.batch import step_table
 from bubblerob_env.core.kernel import OUT
-from bubblerob_env.core.mjabi import disableflags_address
+from bubblerob_env.core.mjabi import disableflags_address, load_mujoco_library
 
 
 def _env(seed: int) -> BubbleRobEnv:
@@ -48,6 +48,28 @@ def test_the_bound_step_equals_numbas_dispatch_and_mujocos_own_substeps() -> Non
         for name in ("qpos", "qvel", "sensordata", "act"):
             assert getattr(reference, name).tobytes() == getattr(fast.scene.data, name).tobytes()
         assert model.opt.disableflags == flags  # restored after every step
+
+
+def test_mujocos_timers_are_off_in_the_step_and_as_they_were_after() -> None:
+    env = _env(1)
+    model, data = env.scene.model, env.scene.data
+    callback = ctypes.c_void_p.in_dll(ctypes.CDLL(load_mujoco_library()), "mjcb_time")
+    clock = callback.value
+    assert clock, "the bindings set a steady clock as MuJoCo's timer"
+    position = data.timer[mujoco.mjtTimer.mjTIMER_POSITION]
+    calls, duration = int(position.number), float(position.duration)
+    env.step(np.array([1.0, 0.5], dtype=np.float32))
+    assert int(position.number) == calls + env.physics_substeps  # the stages ran ...
+    assert float(position.duration) == duration  # ... untimed
+    assert callback.value == clock  # and the clock is back for MuJoCo called from Python
+    mujoco.mj_step1(model, data)
+    assert float(position.duration) > duration
+    try:
+        callback.value = None  # turned off by someone else: a step leaves it off
+        env.step(np.array([1.0, 0.5], dtype=np.float32))
+        assert callback.value is None
+    finally:
+        callback.value = clock
 
 
 def test_disableflags_address_is_where_the_bindings_read_it() -> None:

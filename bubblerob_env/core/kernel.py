@@ -23,12 +23,19 @@ from numba import njit
 from numba.np.numpy_support import carray
 from numpy.typing import NDArray
 
-from bubblerob_env.core.mjabi import MJ_MULTIRAY, MJ_STEP1, MJ_STEP2, as_pointer
+from bubblerob_env.core.mjabi import (
+    MJ_MULTIRAY,
+    MJ_STEP1,
+    MJ_STEP2,
+    as_pointer,
+    set_timer_callback,
+    timer_callback,
+)
 from bubblerob_env.core.raycast import cast_prisms, world_rays
 
 # numba caches this file's functions by this file's text alone, and they contain the raycast
 # and mjabi functions they call: edit this line whenever those change, or a cache made before
-# keeps the old code (last: raycast's unrotated geoms, 2026-11-28).
+# keeps the old code (last: mjabi's timer callback, 2026-11-28).
 
 __all__ = [
     "CFG",
@@ -368,9 +375,21 @@ def step_robots(
     state: RobotState,
     outputs: Outputs,
 ) -> None:  # pragma: no cover - numba
-    """Step ``robots`` (indices into every per-robot array) by one control step each."""
+    """Step ``robots`` (indices into every per-robot array) by one control step each.
+
+    MuJoCo's profiling timers are off meanwhile: its clock callback (``mjcb_time``, which the
+    Python bindings set to a steady clock) is read about 15 times a substep, 5% of the single
+    env's step, and only ``mjData.timer`` holds what it measures, which nothing here reads; no
+    state, sensor or contact depends on it. The callback is put back after the step. A call
+    that finds it already off (another thread's step, or the user's choice) leaves it off, so
+    concurrent steps never leave it off for good; while a step runs, MuJoCo called from other
+    threads is not timed.
+    """
     icfg, cfg = settings
     out, velocity = outputs[3], outputs[2]
+    timer = timer_callback()
+    if timer:
+        set_timer_callback(0)
     for i in robots:
         row = out[i]
         _wheel_command(actions[i], cfg, icfg[ICFG.TWIST] != 0, row)
@@ -379,6 +398,8 @@ def step_robots(
         _physics(ptrs[i], icfg, tables[0], row)
         nearest = _sense(i, ptrs, settings, tables, state, outputs)
         _reward(nearest, velocity[i], cfg, row)
+    if timer:
+        set_timer_callback(timer)
 
 
 @njit(cache=True, nogil=True)

@@ -8,6 +8,10 @@ scalars that the bindings expose only as Python numbers (``ncon``, ``time`` and 
 pointer) are read at offsets computed from ``mujoco.introspect``'s field list; the supported
 mujoco range is pinned in pyproject.toml and ``tests/test_core_abi.py`` checks every offset
 against the bindings, so a release that moves them fails a test, not a user's run.
+
+MuJoCo's profiling clock, the global ``mjcb_time`` callback, is read and set by name too
+(:func:`timer_callback`, :func:`set_timer_callback`): the kernel turns it off around its own
+steps (see :func:`~bubblerob_env.core.kernel.step_robots`).
 """
 
 from __future__ import annotations
@@ -19,6 +23,7 @@ from typing import Any
 
 import llvmlite.binding as llvm
 import mujoco
+from llvmlite import ir
 from mujoco.introspect import structs
 from numba import types
 from numba.core import cgutils
@@ -33,6 +38,8 @@ __all__ = [
     "data_layout",
     "disableflags_address",
     "load_mujoco_library",
+    "set_timer_callback",
+    "timer_callback",
 ]
 
 
@@ -83,6 +90,41 @@ def _as_pointer(typingctx: Any, address: Any) -> tuple[Any, Any]:
 
 as_pointer: Any = intrinsic(_as_pointer)
 """Numba only: an integer address as a ``void*`` (for ``numba.carray`` and C calls)."""
+
+_TIMER = "mjcb_time"
+
+
+def _timer_variable(builder: Any) -> Any:
+    """The ``mjcb_time`` of libmujoco (a function pointer), declared in the module being built.
+
+    An external declaration: resolved by name when the code is loaded, like ``mj_step1``.
+    """
+    variable = builder.module.globals.get(_TIMER)
+    if variable is None:
+        variable = ir.GlobalVariable(builder.module, cgutils.voidptr_t, _TIMER)
+        variable.linkage = "external"
+    return variable
+
+
+def _timer_callback(typingctx: Any) -> tuple[Any, Any]:
+    def codegen(context: Any, builder: Any, sig: Any, args: Any) -> Any:
+        return builder.ptrtoint(builder.load(_timer_variable(builder)), ir.IntType(64))
+
+    return types.uint64(), codegen
+
+
+def _set_timer_callback(typingctx: Any, value: Any) -> tuple[Any, Any]:
+    def codegen(context: Any, builder: Any, sig: Any, args: Any) -> Any:
+        builder.store(builder.inttoptr(args[0], cgutils.voidptr_t), _timer_variable(builder))
+        return context.get_dummy_value()
+
+    return types.void(value), codegen
+
+
+timer_callback: Any = intrinsic(_timer_callback)
+"""Numba only: MuJoCo's ``mjcb_time`` as an address (0: none, MuJoCo's timers are off)."""
+set_timer_callback: Any = intrinsic(_set_timer_callback)
+"""Numba only: set MuJoCo's ``mjcb_time`` to an address (0 turns its timers off)."""
 
 
 _SCALAR_SIZES = {
