@@ -157,74 +157,77 @@ def _footprint_interval(
     size: NDArray[np.float64],
     px: float,
     py: float,
-) -> tuple[bool, float, float]:  # pragma: no cover - numba
-    """``(everywhere, lo, hi)``: the world azimuths from ``(px, py)`` that the footprint spans.
+) -> tuple[bool, float, float, float, float]:  # pragma: no cover - numba
+    """``(everywhere, lo_x, lo_y, hi_x, hi_y)``: directions from ``(px, py)`` bounding a footprint.
 
-    ``hi - lo`` is in [0, pi). ``everywhere``: the point is in (or on) the footprint.
+    Every horizontal direction into the footprint is counter-clockwise of ``lo`` and clockwise
+    of ``hi``, which are less than pi apart (vectors of any length). ``everywhere``: the point
+    is in (or on) the footprint. No trigonometry: the cylinder's tangents are its centre's direction
+    turned by +-asin(radius / distance), written with the sine and cosine of that angle; the
+    box's are its outermost corners (of the centre's direction and the four corners, within
+    a half-plane, the most clockwise and counter-clockwise by cross products).
     """
     dx, dy = pos[0] - px, pos[1] - py
-    centre = math.atan2(dy, dx)
     if gtype == GEOM_CYLINDER:
         radius = size[0]
-        distance = math.sqrt(dx * dx + dy * dy)
-        if distance <= radius * (1.0 + _INSIDE_TOLERANCE) + _INSIDE_TOLERANCE:
-            return True, 0.0, 0.0
-        half = math.asin(radius / distance)
-        return False, centre - half, centre + half
-    # Box: the point in the box's frame, then the azimuths of its four corners.
+        distance_sqr = dx * dx + dy * dy
+        if math.sqrt(distance_sqr) <= radius * (1.0 + _INSIDE_TOLERANCE) + _INSIDE_TOLERANCE:
+            return True, 0.0, 0.0, 0.0, 0.0
+        along = math.sqrt(distance_sqr - radius * radius)  # distance * cos, radius = distance * sin
+        return (
+            False,
+            dx * along + dy * radius,
+            dy * along - dx * radius,
+            dx * along - dy * radius,
+            dy * along + dx * radius,
+        )
+    # Box: the point in the box's frame, then its four corners.
     ux, uy, vx, vy = mat[0], mat[3], mat[1], mat[4]
     lx, ly = -(dx * ux + dy * uy), -(dx * vx + dy * vy)
     tol = _INSIDE_TOLERANCE
     if abs(lx) <= size[0] * (1 + tol) + tol and abs(ly) <= size[1] * (1 + tol) + tol:
-        return True, 0.0, 0.0
-    lo, hi = 0.0, 0.0
+        return True, 0.0, 0.0, 0.0, 0.0
+    lo_x, lo_y, hi_x, hi_y = dx, dy, dx, dy
     for corner in range(4):
         sx = size[0] if corner & 1 else -size[0]
         sy = size[1] if corner & 2 else -size[1]
         cx, cy = dx + sx * ux + sy * vx, dy + sx * uy + sy * vy
-        offset = math.atan2(cy, cx) - centre
-        if offset > math.pi:
-            offset -= _TWO_PI
-        elif offset < -math.pi:
-            offset += _TWO_PI
-        lo, hi = min(lo, offset), max(hi, offset)
-    return False, centre + lo, centre + hi
+        if lo_x * cy - lo_y * cx < 0.0:
+            lo_x, lo_y = cx, cy
+        if hi_x * cy - hi_y * cx > 0.0:
+            hi_x, hi_y = cx, cy
+    return False, lo_x, lo_y, hi_x, hi_y
 
 
 @njit(cache=True, nogil=True)
-def _local_angle(azimuth: float, inverse: NDArray[np.float64]) -> float:  # pragma: no cover
-    """The ray angle (laser frame) whose horizontal projection points at world ``azimuth``."""
-    cx, cy = math.cos(azimuth), math.sin(azimuth)
-    return math.atan2(inverse[2] * cx + inverse[3] * cy, inverse[0] * cx + inverse[1] * cy)
+def _local_angle(
+    x: float, y: float, inverse: tuple[float, float, float, float]
+) -> float:  # pragma: no cover - numba
+    """The ray angle (laser frame) whose horizontal projection points along world ``(x, y)``."""
+    return math.atan2(inverse[2] * x + inverse[3] * y, inverse[0] * x + inverse[1] * y)
 
 
 @njit(cache=True, nogil=True)
 def _horizontal_inverse(
     xmat: NDArray[np.float64],
-) -> tuple[bool, NDArray[np.float64]]:  # pragma: no cover - numba
+) -> tuple[bool, tuple[float, float, float, float]]:  # pragma: no cover - numba
     """Whether rays can be culled by azimuth, and the inverse of the laser's horizontal map.
 
     The map takes a ray angle's (cos, sin) in the laser frame to its world direction's
-    horizontal part; culling needs it invertible (a laser tilted less than 90 degrees).
+    horizontal part; culling needs it invertible (a laser tilted less than 90 degrees) and
+    keeping orientation (so that a positive multiple of a direction maps to the same angle).
     """
     m00, m01, m10, m11 = xmat[0], xmat[1], xmat[3], xmat[4]
     det = m00 * m11 - m01 * m10
-    cull = det > 1e-6
-    inverse = np.empty(4)
-    if cull:
-        inverse[0], inverse[1], inverse[2], inverse[3] = (
-            m11 / det,
-            -m01 / det,
-            -m10 / det,
-            m00 / det,
-        )
-    return cull, inverse
+    if det > 1e-6:
+        return True, (m11 / det, -m01 / det, -m10 / det, m00 / det)
+    return False, (0.0, 0.0, 0.0, 0.0)
 
 
 @njit(cache=True, nogil=True)
 def _candidate_rays(
     cull: bool,
-    inverse: NDArray[np.float64],
+    inverse: tuple[float, float, float, float],
     gtype: int,
     pos: NDArray[np.float64],
     mat: NDArray[np.float64],
@@ -243,10 +246,12 @@ def _candidate_rays(
     """
     first, count, second = 0, nray, nray
     if cull:
-        everywhere, lo, hi = _footprint_interval(gtype, pos, mat, size, pnt[0], pnt[1])
+        everywhere, lo_x, lo_y, hi_x, hi_y = _footprint_interval(
+            gtype, pos, mat, size, pnt[0], pnt[1]
+        )
         if not everywhere:
-            a_lo = _local_angle(lo, inverse)
-            span = _local_angle(hi, inverse) - a_lo
+            a_lo = _local_angle(lo_x, lo_y, inverse)
+            span = _local_angle(hi_x, hi_y, inverse) - a_lo
             if span < 0:
                 span += _TWO_PI
             offset = (a_lo - angle_min) % _TWO_PI
