@@ -8,6 +8,7 @@ these arrays as messages.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -89,22 +90,62 @@ def ground_truth_grid(
     than a cell, walls thinner than half a cell) occupies every cell it touches instead.
     """
     resolution = check_resolution(resolution)
+    arena = _arena_cells(float(arena_size), float(wall_thickness), resolution)
+    grid = Grid(np.zeros(arena.walls.shape, dtype=np.int8), arena.origin, resolution)
+    occupied = arena.walls.copy()
+    for obstacle in layout.obstacles:
+        # Only the cells around the obstacle: every centre its footprint holds is among them.
+        window = _window(obstacle, arena)
+        inside = _footprint(obstacle, arena.x[window], arena.y[window])
+        if inside.any():
+            occupied[window] |= inside
+        else:
+            occupied |= _touched(obstacle, grid)
+    grid.data[occupied] = OCCUPIED
+    return grid
+
+
+@dataclass(frozen=True)
+class _ArenaCells:
+    """An arena's cells (read-only): their centres, the walls' cells, the lower-left corner."""
+
+    x: NDArray[np.float64]
+    y: NDArray[np.float64]
+    walls: NDArray[np.bool_]
+    origin: tuple[float, float]
+    resolution: float
+
+
+@functools.lru_cache(maxsize=16)
+def _arena_cells(arena_size: float, wall_thickness: float, resolution: float) -> _ArenaCells:
+    """The cells of an arena, made once per size, wall thickness and resolution."""
     outer = arena_size / 2.0 + wall_thickness
     cells = math.ceil(round(2 * outer / resolution, 9))
     origin = (-cells * resolution / 2.0, -cells * resolution / 2.0)
-    grid = Grid(np.zeros((cells, cells), dtype=np.int8), origin, resolution)
-    x, y = grid.centres
+    x, y = Grid(np.zeros((cells, cells), dtype=np.int8), origin, resolution).centres
     half = arena_size / 2.0
     edge = resolution / 2.0  # from a cell's centre to its sides
-    occupied = np.zeros(grid.data.shape, dtype=bool)
+    walls = np.zeros((cells, cells), dtype=bool)
     for axis, side in ((x, 1.0), (x, -1.0), (y, 1.0), (y, -1.0)):
         wall = side * axis > half
-        occupied |= wall if wall.any() else side * axis + edge > half
-    for obstacle in layout.obstacles:
-        inside = _footprint(obstacle, x, y)
-        occupied |= inside if inside.any() else _touched(obstacle, grid)
-    grid.data[occupied] = OCCUPIED
-    return grid
+        walls |= wall if wall.any() else side * axis + edge > half
+    for array in (x, y, walls):
+        array.setflags(write=False)
+    return _ArenaCells(x, y, walls, origin, resolution)
+
+
+def _window(obstacle: Obstacle, arena: _ArenaCells) -> tuple[slice, slice]:
+    """Rows and columns of the cells whose centres may lie in ``obstacle``'s footprint.
+
+    Those within its bounding radius of its centre, with two cells to spare each way.
+    """
+    rows, cols = arena.walls.shape
+    reach = obstacle.bounding_radius / arena.resolution + 2.0
+    col = (obstacle.x - arena.origin[0]) / arena.resolution - 0.5
+    row = (obstacle.y - arena.origin[1]) / arena.resolution - 0.5
+    col_lo, col_hi = max(0, math.floor(col - reach)), min(cols, math.ceil(col + reach) + 1)
+    row_lo, row_hi = max(0, math.floor(row - reach)), min(rows, math.ceil(row + reach) + 1)
+    return slice(row_lo, max(row_lo, row_hi)), slice(col_lo, max(col_lo, col_hi))
 
 
 def _footprint(obstacle: Obstacle, x: NDArray[np.float64], y: NDArray[np.float64]) -> Any:

@@ -11,11 +11,13 @@ import pytest
 from cli_usage import run
 
 import bubblerob_env  # noqa: F401 - registers BubbleRob-v0
+from bubblerob_env.arena import ArenaLayout, Obstacle
 from bubblerob_env.mapping import (
     OCCUPIED,
     Grid,
     LogOddsMapper,
     episode_grid,
+    ground_truth_grid,
     occupied_iou,
 )
 
@@ -58,6 +60,63 @@ def test_ground_truth_agrees_with_the_scene_cell_by_cell(seed):
         assert np.count_nonzero(grid.data == OCCUPIED) > 4 * 2 * 80  # walls and obstacles
     finally:
         env.close()
+
+
+def _every_cell_grid(
+    layout: ArenaLayout, arena: float, wall: float, resolution: float
+) -> Grid | None:
+    """The grid's rule applied to every cell (ground_truth_grid looks near each obstacle only):
+    occupied where the centre is in a wall or a footprint. None where a footprint holds no
+    centre (that obstacle takes the cells it touches: another rule)."""
+    cells = math.ceil(round((arena + 2 * wall) / resolution, 9))
+    origin = (-cells * resolution / 2.0, -cells * resolution / 2.0)
+    x, y = Grid(np.zeros((cells, cells), np.int8), origin, resolution).centres
+    half, edge = arena / 2.0, resolution / 2.0
+    occupied = np.zeros((cells, cells), dtype=bool)
+    for axis, side in ((x, 1.0), (x, -1.0), (y, 1.0), (y, -1.0)):
+        wall_cells = side * axis > half
+        occupied |= wall_cells if wall_cells.any() else side * axis + edge > half
+    for o in layout.obstacles:
+        dx, dy = x - o.x, y - o.y
+        if o.kind == "cylinder":
+            inside = np.hypot(dx, dy) <= o.size[0]
+        else:
+            c, s = math.cos(o.yaw), math.sin(o.yaw)
+            local_x, local_y = c * dx + s * dy, -s * dx + c * dy
+            inside = (np.abs(local_x) <= o.size[0]) & (np.abs(local_y) <= o.size[1])
+        if not inside.any():
+            return None
+        occupied |= inside
+    return Grid(np.where(occupied, OCCUPIED, 0).astype(np.int8), origin, resolution)
+
+
+def test_ground_truth_looks_near_each_obstacle_and_finds_what_every_cell_does():
+    env = gym.make("BubbleRob-v0", laser_num_rays=0, num_obstacles=(8, 12))
+    layouts = []
+    for seed in range(12):
+        env.reset(seed=seed)
+        layouts.append(env.unwrapped.layout)
+    env.close()
+    # Obstacles across the grid's edge and beyond it, large and rotated.
+    layouts.append(ArenaLayout(
+        obstacles=(
+            Obstacle("box", 2.05, 0.3, 0.7, (0.45, 0.2)),
+            Obstacle("cylinder", -1.95, -2.02, 0.0, (0.4, 0.2)),
+        ),
+        start_pose=(0.0, 0.0, 0.0),
+    ))  # fmt: skip
+    compared = 0
+    for layout in layouts:
+        for resolution in (0.05, 0.013, 0.3):
+            for wall in (0.1, 0.0):
+                expected = _every_cell_grid(layout, 4.0, wall, resolution)
+                if expected is None:
+                    continue
+                grid = ground_truth_grid(layout, 4.0, wall, resolution)
+                assert grid.origin == expected.origin
+                np.testing.assert_array_equal(grid.data, expected.data)
+                compared += 1
+    assert compared >= 13 * 2 * 2
 
 
 def test_mapper_marks_a_wall_hit_occupied_and_the_beam_free():
