@@ -90,14 +90,14 @@ def _every_cell_grid(
     return Grid(np.where(occupied, OCCUPIED, 0).astype(np.int8), origin, resolution)
 
 
-def test_ground_truth_looks_near_each_obstacle_and_finds_what_every_cell_does():
+def test_ground_truth_looks_near_each_obstacle_and_finds_what_every_cell_does() -> None:
     env = gym.make("BubbleRob-v0", laser_num_rays=0, num_obstacles=(8, 12))
-    layouts = []
+    layouts: list[ArenaLayout] = []
     for seed in range(12):
         env.reset(seed=seed)
-        layouts.append(env.unwrapped.layout)
+        layouts.append(getattr(env.unwrapped, "layout"))  # noqa: B009 - typed as gym.Env
     env.close()
-    # Obstacles across the grid's edge and beyond it, large and rotated.
+    # Obstacles across the grid's edge, large and rotated.
     layouts.append(ArenaLayout(
         obstacles=(
             Obstacle("box", 2.05, 0.3, 0.7, (0.45, 0.2)),
