@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import bubblerob_env  # noqa: F401
-from bubblerob_env.arena import ASSETS_DIR
+from bubblerob_env.arena import ASSETS_DIR, Obstacle
 from bubblerob_env.core.batch import laser_geoms
 from bubblerob_env.core.raycast import cast_prisms, world_rays
 
@@ -158,6 +158,29 @@ def test_grazing_rays_at_box_corners_cylinder_tangents_and_arena_corners():
                 np.testing.assert_array_equal(analytic, reference)
                 checked += 1
     assert checked > 100
+
+
+@pytest.mark.parametrize("gap", [-1e-3, 0.0, 1e-9, 1e-7, 1e-5, 1e-3])
+def test_geoms_just_behind_nearer_ones_read_as_mj_multiray(gap):
+    """The caster tests the nearest geoms first and skips a geom for rays that already hit
+    something nearer than it can be: rows of cylinders and boxes each ``gap`` m behind the one
+    before (overlapping when negative), scanned from beside and along them, and tilted."""
+    env = gym.make("BubbleRob-v0", num_obstacles=(10, 10), laser_num_rays=1440)
+    env.reset(seed=5200)
+    raw = env.unwrapped
+    rows = []
+    for kind, size, y in (("cylinder", (0.1,), 0.6), ("box", (0.1, 0.1), -0.6)):
+        x = -1.0
+        for _ in range(5):
+            rows.append(Obstacle(kind, x, y, 0.0, size))
+            x += 2 * size[0] + gap
+    raw.scene.slots.apply(raw.model, raw.data, tuple(rows))
+    rng = np.random.default_rng(int(1e9 * gap) % 1000)
+    for k, (x, y) in enumerate([(-1.6, 0.6), (-1.6, -0.6), (-1.6, 0.0), (0.0, 0.0), (1.6, 0.58)]):
+        tilt = _random_tilt(rng) if k % 2 else None
+        _place(env, x, y, rng.uniform(-math.pi, math.pi), tilt, None)
+        analytic, reference = _both(env)
+        np.testing.assert_array_equal(analytic, reference, err_msg=f"pose {k}")
 
 
 def _oracle(env) -> np.ndarray:

@@ -35,7 +35,7 @@ from bubblerob_env.core.raycast import cast_prisms, world_rays
 
 # numba caches this file's functions by this file's text alone, and they contain the raycast
 # and mjabi functions they call: edit this line whenever those change, or a cache made before
-# keeps the old code (last: raycast's culling without trigonometry, 2026-11-28).
+# keeps the old code (last: raycast's nearest geoms first, 2026-11-28).
 
 __all__ = [
     "CFG",
