@@ -103,3 +103,43 @@ def test_crcs_are_written_and_catch_corruption(record, compression):
         corrupt[at] ^= 0xFF  # a log time of a message index; the last byte of a message
         with pytest.raises(CRCValidationError, match=f"in {what}"):
             list(StreamReader(BytesIO(bytes(corrupt)), validate_crcs=True).records)
+
+
+def _mcap_messages(path):  # type: ignore[no-untyped-def]
+    """Every message as the mcap library reads it (CRCs checked): topic, times, sequence, data."""
+    (storage,) = path.glob("*.mcap")
+    with storage.open("rb") as stream:
+        reader = make_reader(stream, validate_crcs=True)
+        return [
+            (channel.topic, m.log_time, m.publish_time, m.sequence, bytes(m.data))
+            for _, channel, m in reader.iter_messages(log_time_order=False)
+        ]
+
+
+def test_chunks_at_the_fast_zstd_level_hold_level_1s_messages(record, monkeypatch):
+    """Issue #40 item 5: MCAP chunks are compressed at zstd level -3 (2026-11-28; level 1
+    before). The same episodes at both levels: the same messages for rosbags, the mcap library
+    (CRCs checked) and mcap-ros2's decoder, in different compressed chunks."""
+    from bubblerob_env.ros.bags import ros2
+
+    assert ros2.MCAP_ZSTD_LEVEL == -3
+    kwargs = {"episodes": 3, "steps": 40, "start_time": 1.7e9, "env_kwargs": {"camera": True}}
+    fast = record("mcap", "zstd", name="fast", **kwargs)
+    monkeypatch.setattr(ros2, "MCAP_ZSTD_LEVEL", 1)
+    level_1 = record("mcap", "zstd", name="level_1", **kwargs)
+    assert _mcap_messages(fast) == _mcap_messages(level_1)
+    assert len(_mcap_messages(fast)) > 3 * 40 * 10
+    assert repr(read_all(fast)) == repr(read_all(level_1))  # rosbags, decoded
+    decoded = []
+    for path in (fast, level_1):
+        (storage,) = path.glob("*.mcap")
+        with storage.open("rb") as stream:
+            reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+            decoded.append([repr(d) for _, _, _, d in reader.iter_decoded_messages()])
+            chunks = reader.get_summary().chunk_indexes  # type: ignore[union-attr]
+            assert {c.compression for c in chunks} == {"zstd"}
+            sizes = sum(c.compressed_size for c in chunks), sum(c.uncompressed_size for c in chunks)
+            decoded[-1].append(sizes)
+    fast_sizes, level_1_sizes = decoded[0].pop(), decoded[1].pop()
+    assert decoded[0] == decoded[1]
+    assert fast_sizes[1] == level_1_sizes[1] and fast_sizes[0] != level_1_sizes[0]

@@ -263,7 +263,7 @@ class _Rosbag2Sink(BagSink):
         if compression == "zstd":  # MCAP chunk compression, as `ros2 bag record` does it
             self._writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
         self._writer.open()
-        self._writer.compress_at_level_1()  # as `ros2 bag record` does
+        self._writer.compress_chunks_fast()  # zstd level -3: ros2.MCAP_ZSTD_LEVEL
         if chunk_size is not None:
             self._writer.set_chunk_size(chunk_size)
 
