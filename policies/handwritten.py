@@ -20,7 +20,7 @@ class OneByOnePolicy:
     """
 
     FRESH_STATE = 0.0
-    """A new episode's state (the navigators use NaN: no side chosen yet)."""
+    """A new episode's state (the navigators': no turn away from the goal's bearing yet)."""
 
     def __init__(self) -> None:
         self._state: NDArray[np.float64] | None = None

@@ -34,7 +34,7 @@ __all__ = [
     "navigation_policy",
 ]
 
-NAVIGATION_POLICIES = ("navigator", "pursuit", "crowd_navigator")
+NAVIGATION_POLICIES = ("navigator", "pursuit", "crowd_navigator", "navigator_observed")
 """The built-in controllers of ``BubbleRobNav-v0`` / ``PioneerP3DXNav-v0``."""
 _HEADINGS = 41  # candidate headings, as LaserPolicy's
 _BUBBLEROB_RADIUS, _BUBBLEROB_SPEED = 0.11, 0.4  # what the gains below were tuned for
@@ -63,7 +63,8 @@ def navigation_policy(
     if name == "crowd_navigator":
         window = base.robot.laser.window[0]
         return CrowdNavigatorPolicy(gap, max_heading, base.robot.radius, tight, window=window)
-    return NavigatorPolicy(gap, max_heading, base.robot.radius, tight)
+    observed = name == "navigator_observed"
+    return NavigatorPolicy(gap, max_heading, base.robot.radius, tight, observed_memory=observed)
 
 
 def _scaled_gap_law(radius: float, mapper: ActionMapper, max_heading: float) -> dict[str, Any]:
@@ -92,6 +93,13 @@ class NavigatorPolicy(OneByOnePolicy):
     slows as the corridor ahead or the goal's distance shrinks. Within the gap follower's horizon
     of the goal its corridors keep a quarter of the margin (``tight``): a goal may lie in a gap
     that is free for the robot but not for the margin.
+
+    With ``observed_memory`` (``navigator_observed``) the memory is not carried but read from the
+    observation: the last step's heading is its turn rate over the turn gain (the ``velocity``
+    observation's measured rate), less the goal's bearing now. The controller is then a function
+    of the observation alone (its only state: whether the episode has taken a step), the teacher
+    a network can imitate: the carried memory follows the navigator's own past choices, which on
+    states a network drives into are not the network's (docs/LEARNING.md, the eighth round).
     """
 
     name = "navigator"
@@ -104,8 +112,12 @@ class NavigatorPolicy(OneByOnePolicy):
         tight: LaserPolicy | None = None,
         goal_weight: float = 0.5,
         commit_weight: float = 0.3,
+        observed_memory: bool = False,
     ) -> None:
         super().__init__()
+        self.observed_memory = observed_memory
+        if observed_memory:
+            self.name = "navigator_observed"
         self.gap = gap
         self.tight = gap if tight is None else tight
         self.mapper = gap.mapper
@@ -116,6 +128,21 @@ class NavigatorPolicy(OneByOnePolicy):
         self.commit_weight = commit_weight * gap.horizon / 1.5
 
     def _act(self, obs: Observation, memory: float) -> tuple[NDArray[np.float32], float]:
+        if not self.observed_memory:
+            return self._steer(obs, memory)
+        # The state only says whether a step was taken (FRESH_STATE: not yet). Before it there is
+        # no last heading: the goal's, as the carried memory starts.
+        fresh = memory == self.FRESH_STATE
+        action, _ = self._steer(obs, self.FRESH_STATE if fresh else self.memory_in(obs))
+        return action, self.FRESH_STATE + 1.0
+
+    def memory_in(self, obs: Observation) -> float:
+        """The last step's heading from the goal, as the observation shows it (see the class)."""
+        turn_rate, bearing = float(obs["velocity"][1]), float(obs["goal"][1])
+        off_goal = turn_rate / self.gap.turn_gain - bearing
+        return float(np.remainder(off_goal + math.pi, math.tau) - math.pi)
+
+    def _steer(self, obs: Observation, memory: float) -> tuple[NDArray[np.float32], float]:
         distance, bearing = (float(v) for v in np.asarray(obs["goal"]))
         # Close to the goal, a corridor with less margin: goals may lie in tight spots.
         near = distance < self.gap.horizon
