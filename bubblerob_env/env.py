@@ -56,7 +56,6 @@ _VIEWS = (
     "_laser_row",
     "_proximity_row",
     "_velocity_row",
-    "_odometry_pose",
 )
 # Actions whose values need no checking beyond finiteness (numpy's own float arrays).
 _FLOAT32, _FLOAT64 = np.dtype(np.float32), np.dtype(np.float64)
@@ -334,7 +333,6 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
             if previous is not None:
                 odometry.state[0] = previous.state[self._odometry_row]
         self._odometry, self._odometry_row = odometry, row
-        self._odometry_pose = odometry.poses[row]
 
     @property
     def dt(self) -> float:
@@ -377,7 +375,7 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
         out = self._out_row.copy()  # one copy: info's arrays are views into it
         values = out.tolist()
         slip = draw_slip(self.np_random, self.odometry_noise)[None] if self.odometry_noise else None
-        self._odometry.advance_one(self._odometry_row, values, slip)
+        odometry = self._odometry.advance_one(self._odometry_row, values, slip)
         collision = values[_COLLISION] != 0.0
         self._clipped_actions += values[_CLIPPED] != 0.0
         diverged = self.scene.diverged() if values[_DIVERGED] else ""
@@ -389,7 +387,7 @@ class BubbleRobEnv(gym.Env[Observation, NDArray[np.float32]]):
         info = row_info(
             out,
             values,
-            self._odometry_pose.tolist(),
+            odometry,
             self._proximity_row.item(),
             self.scene.proximity_spec.trigger_distance,
             self._clipped_actions,

@@ -23,6 +23,8 @@ a single env gets.
 from __future__ import annotations
 
 import math
+import struct
+from typing import Any
 
 import numpy as np
 from numba import njit
@@ -36,6 +38,7 @@ TRUTH_COLUMNS = np.array([int(OUT.POSITION), int(OUT.POSITION) + 1, int(OUT.YAW)
 """Columns of the kernel's results holding the true x, y (m) and yaw (rad) of ``base_link``."""
 _X, _Y, _YAW = (int(column) for column in TRUTH_COLUMNS)
 POSE = 3  # the state: odometry (x, y, yaw), then the truth at the last step (x, y, yaw)
+_ROW = struct.Struct(f"{2 * POSE}d")  # one robot's state row, as the state array holds it
 
 
 @njit(cache=True, nogil=True)
@@ -88,6 +91,14 @@ class Odometry:
         self.state = np.zeros((n, 2 * POSE))
         self.noise = float(noise)
         self.separation = float(wheel_separation)
+        self._bytes = self.state.data.cast("B")  # the state, written in place
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {key: value for key, value in self.__dict__.items() if key != "_bytes"}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._bytes = self.state.data.cast("B")
 
     @property
     def poses(self) -> NDArray[np.float64]:
@@ -98,17 +109,24 @@ class Odometry:
         """Start robot ``row``'s odometry at its true pose in its row of the kernel's results."""
         self.state[row, :POSE] = self.state[row, POSE:] = results[TRUTH_COLUMNS]
 
-    def advance_one(self, row: int, values: list[float], slip: NDArray[np.float64] | None) -> None:
+    def advance_one(
+        self, row: int, values: list[float], slip: NDArray[np.float64] | None
+    ) -> list[float]:
         """:meth:`advance` for one robot, from its row of the kernel's results as a list.
 
-        The single env's step: no fancy indexing, which took a tenth of its time at ``noise`` 0.
+        Returns the robot's odometry pose ``[x, y, yaw]``. The single env's step: no fancy
+        indexing, which took a tenth of its time at ``noise`` 0, and without noise the row is
+        packed straight into the state's bytes (the same doubles: ~80 ns against ~400 ns for
+        numpy's assignment of a tuple).
         """
         x, y, yaw = values[_X], values[_Y], values[_YAW]
         if slip is None:
-            self.state[row] = (x, y, yaw, x, y, yaw)
-            return
+            _ROW.pack_into(self._bytes, row * _ROW.size, x, y, yaw, x, y, yaw)
+            return [x, y, yaw]
         truth = np.array([[x, y, yaw]])
         integrate_travel(self.state, np.array([row], dtype=np.int64), truth, slip, self.separation)
+        pose: list[float] = self.state[row, :POSE].tolist()
+        return pose
 
     def advance(
         self,
