@@ -357,3 +357,29 @@ def test_training_seeds_stay_below_the_validation_seeds():
     check_training_seeds(992, 8)
     with pytest.raises(ValueError, match=r"training seeds are 0-999.*--seed from 0 to 992"):
         check_training_seeds(993, 8)
+
+
+@pytest.mark.parametrize("at_start", [False, True])
+def test_a_warm_started_model_is_evaluated_before_the_first_update(tmp_path, at_start):
+    # With at_start (a warm start ran: the trainer passes it for ImitationWarmStart), the first
+    # step evaluates too, then every eval_freq-th as before; the evaluations' timesteps say when.
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.logger import configure
+
+    from train.validation import validation_evaluation
+
+    kwargs = {"max_episode_steps": 5}
+    eval_env = make_vec_env("BubbleRob-v0", n_envs=2, seed=0, env_kwargs=kwargs)
+    model = PPO("MultiInputPolicy", make_vec_env("BubbleRob-v0", n_envs=1, seed=0), n_steps=64,
+                batch_size=64, seed=0, device="cpu")  # fmt: skip
+    model.set_logger(configure(None, []))
+    evaluation = validation_evaluation(
+        eval_env, at_start=at_start, n_eval_episodes=2, eval_freq=3, verbose=0, log_path=tmp_path
+    )
+    evaluation.init_callback(model)
+    for step in range(1, 7):
+        model.num_timesteps = step
+        evaluation.on_step()
+    assert evaluation.evaluations_timesteps == ([1, 3, 6] if at_start else [3, 6])
+    assert evaluation.n_calls == 6

@@ -74,6 +74,9 @@ class ImitationWarmStart(BaseCallback):
     ``teacher_fraction`` per env and step, the policy's otherwise.
     """
 
+    warm_start = True
+    """It makes a model before the algorithm's first update (the trainer evaluates that one too)."""
+
     def __init__(
         self,
         teacher: str = "navigator",

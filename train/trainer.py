@@ -151,12 +151,16 @@ def _callbacks(
     from stable_baselines3.common.vec_env import VecTransposeImage, is_vecenv_wrapped
 
     count = int(model.get_env().num_envs)  # slots: n_envs, or n_envs x robots (worlds)
+    configured = configured_callbacks(config.get("callback"))
+    # A warm start (imitation) makes a model before the first update: evaluate that one too.
+    warm_start = any(getattr(callback, "warm_start", False) for callback in configured)
     if is_vecenv_wrapped(model.get_env(), VecTransposeImage):
         # SB3 transposes image observations (the camera) for the policy: the eval env alike.
         eval_env = VecTransposeImage(eval_env)
     callbacks: list[Any] = [
         validation_evaluation(
             eval_env,
+            at_start=warm_start,
             n_eval_episodes=eval_episodes,
             eval_freq=max(1, eval_freq // count),
             callback_after_eval=keep_best_model(out),
@@ -171,7 +175,7 @@ def _callbacks(
             save_vecnormalize=True,
         ),
     ]
-    return callbacks + configured_callbacks(config.get("callback")), eval_env
+    return callbacks + configured, eval_env
 
 
 def default_command(algo: str, env_id: str, out: Path) -> str:

@@ -73,16 +73,25 @@ def keep_best_model(out: Path) -> Any:
     return KeepBestModel()
 
 
-def validation_evaluation(eval_env: Any, **kwargs: Any) -> Any:
+def validation_evaluation(eval_env: Any, at_start: bool = False, **kwargs: Any) -> Any:
     """SB3's ``EvalCallback`` that resets ``eval_env`` to validation seeds before each evaluation.
 
     ``eval_env`` has one env per evaluation episode (``n_eval_episodes == eval_env.num_envs``):
     SB3 then runs exactly one episode per env, env ``i`` from seed ``VALIDATION.start + i``.
+    ``at_start``: evaluate at the first step too, before the algorithm's first update, so that a
+    warm-started model (:class:`train.imitation.ImitationWarmStart`, which runs before it) is
+    one of those the best model is kept from.
     """
     from stable_baselines3.common.callbacks import EvalCallback
 
     class _ValidationEvaluation(EvalCallback):
         def _on_step(self) -> bool:
+            if at_start and self.n_calls == 1 and self.eval_freq > 1:
+                self.n_calls = self.eval_freq  # SB3 evaluates when n_calls is a multiple of it
+                try:
+                    return self._on_step()
+                finally:
+                    self.n_calls = 1
             if self.eval_freq > 0 and self.n_calls % self.eval_freq == 0:
                 self.eval_env.seed(VALIDATION.start)  # used by evaluate_policy's reset()
             return bool(super()._on_step())
