@@ -56,8 +56,12 @@ class FrameBatch:
         self._laser = specs.laser is not None
         self._camera = specs.camera is not None
         self._odometry = specs.odometry_noise > 0.0
-        self._at = row_columns(specs.laser.num_rays if specs.laser is not None else 0)
-        self._rows = np.empty((capacity, self._at["laser"].stop), dtype=np.float64)
+        nray = specs.laser.num_rays if specs.laser is not None else 0
+        self._at = row_columns(nray)
+        # The laser apart, in its serialised dtype: float32 readings as they come (half the
+        # bytes of float64 rows; float64 ones round to float32 here as astype would later).
+        self._rows = np.empty((capacity, self._at["laser"].start), dtype=np.float64)
+        self._lasers = np.empty((capacity if self._laser else 0, nray), dtype="<f4")
         self._count = 0
         self._scalars: list[tuple[Any, ...]] = []
         camera = specs.camera
@@ -84,10 +88,10 @@ class FrameBatch:
         All or nothing: a frame that ``frame_args`` would reject (a missing key, a reward that is
         not a number) raises here, at its step, and leaves the batch as it was.
         """
-        # Called every step: one concatenate copies every array into the next row of the buffer
-        # (float32 values are exact in float64; "unsafe" casts the action as the env's own
-        # np.asarray(action, float64) does), a tuple keeps the scalars; the conversion waits for
-        # the whole batch.
+        # Called every step: one concatenate copies the small arrays into the next row of the
+        # buffer (float32 values are exact in float64; "unsafe" casts the action as the env's own
+        # np.asarray(action, float64) does), the scan goes to its own float32 row, a tuple keeps
+        # the scalars; the conversion waits for the whole batch.
         scalars = (
             stamp_ns, seq, action_stamp_ns, float(reward), bool(terminated), bool(truncated),
             bool(info["proximity_triggered"]), float(info["sim_time"]),
@@ -97,13 +101,13 @@ class FrameBatch:
         odometry = (
             (info["odom_x"], info["odom_y"], info["odom_yaw"]) if self._odometry else _NO_ODOMETRY
         )
-        parts: tuple[Any, ...] = (  # in ROW order (checked below, at import)
+        parts = (  # in ROW order (checked below, at import)
             info["position"], info["quaternion_wxyz"], info["body_twist"], info["wheel_command"],
             obs["proximity"], action, odometry,
         )  # fmt: skip
-        if self._laser:
-            parts += (obs["laser"],)
         _concatenate(parts, out=self._rows[self._count], casting="unsafe")
+        if self._laser:
+            self._lasers[self._count] = obs["laser"]
         self._count += 1  # the frame is complete: only now does the batch hold it
         self._scalars.append(scalars)
         return self._count >= self.capacity
@@ -116,6 +120,7 @@ class FrameBatch:
         the batch's buffer: use them before the next :meth:`add`.
         """
         rows = self._rows[: self._count]
+        lasers = self._lasers[: self._count]
         stamp, seq, action_stamp, reward, terminated, truncated, triggered, sim_time = zip(
             *self._scalars, strict=True
         )
@@ -159,8 +164,7 @@ class FrameBatch:
         columns.update(self._odometry_columns(columns, rows[:, at["odometry"]].T))
         if specs.laser is not None:
             # float32 masks, as frame_args: a Python float threshold compares as float32
-            ranges = rows[:, at["laser"]].astype("<f4")
-            columns["ranges"] = rep117(ranges, specs.laser.range_min, specs.laser.range_max)
+            columns["ranges"] = rep117(lasers, specs.laser.range_min, specs.laser.range_max)
         if specs.camera is not None:
             columns["image"] = images  # a writable view: the recogniser takes it as it is
         return columns
