@@ -39,7 +39,10 @@ class Sink(Protocol):
         """The callable that takes one packed frame (asked only when :meth:`framing` is set)."""
 
     def packed_batch_writer(self) -> PackedBatchWriter:
-        """The callable that takes many packed frames (asked only when :meth:`framing` is set)."""
+        """The callable that takes many packed frames (asked only when :meth:`framing` is set).
+
+        Their bytes are valid during the call only: the fan-out packs its next batch into them.
+        """
 
     def close(self) -> None:
         """Finish: a bag writes its index, a live sink stops publishing. Safe twice."""

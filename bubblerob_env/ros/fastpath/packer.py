@@ -61,7 +61,8 @@ class Packer:
         """``count`` frames, one after the other, as a flat ``uint8`` array.
 
         ``columns`` holds every slot's values by slot name, one row per frame: scalars as 1-D
-        arrays, array slots as 2-D arrays of their serialised element type.
+        arrays, array slots as 2-D arrays of their serialised element type. The array is a view
+        of a buffer the next call packs into again: write (or copy) it before that.
         """
         if self._many is None:
             self._many = _BatchLayout(self.items, self.size)
@@ -162,9 +163,14 @@ class _BatchLayout:
             {"names": names, "formats": formats, "offsets": offsets, "itemsize": size}
         )
         self._template = np.frombuffer(bytes(template), dtype=np.uint8)
+        self._size = size
+        # Frames with the constants in place, reused: each pack writes every slot of its rows.
+        self._buffer = np.zeros(0, dtype=np.uint8)
 
     def pack(self, columns: Mapping[str, NDArray[Any]], count: int) -> NDArray[np.uint8]:
-        data = np.tile(self._template, count)
+        if self._buffer.size < count * self._size:  # grows to the largest batch so far
+            self._buffer = np.tile(self._template, count)
+        data = self._buffer[: count * self._size]
         frames = data.view(self._dtype)
         for field, slot, blob in self._fields:
             column = columns[slot]
