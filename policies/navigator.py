@@ -38,6 +38,7 @@ NAVIGATION_POLICIES = ("navigator", "pursuit", "crowd_navigator", "navigator_obs
 """The built-in controllers of ``BubbleRobNav-v0`` / ``PioneerP3DXNav-v0``."""
 _HEADINGS = 41  # candidate headings, as LaserPolicy's
 _BUBBLEROB_RADIUS, _BUBBLEROB_SPEED = 0.11, 0.4  # what the gains below were tuned for
+_OBSERVED_MARGIN = 1.5  # navigator_observed's margin over the navigator's (validation seeds)
 
 
 def navigation_policy(
@@ -58,6 +59,9 @@ def navigation_policy(
         return PursuitPolicy(mapper, base)
     max_heading = math.pi if laser.full_circle else laser.fov / 2 - math.radians(10)
     law = _scaled_gap_law(base.robot.radius, mapper, max_heading)
+    if name == "navigator_observed":
+        # A teacher for a network: half as much margin again, room for the imitation's errors.
+        law["margin"] *= _OBSERVED_MARGIN
     gap = LaserPolicy(mapper, laser, **law)
     tight = LaserPolicy(mapper, laser, **{**law, "margin": 0.25 * law["margin"]})
     if name == "crowd_navigator":
@@ -94,12 +98,14 @@ class NavigatorPolicy(OneByOnePolicy):
     of the goal its corridors keep a quarter of the margin (``tight``): a goal may lie in a gap
     that is free for the robot but not for the margin.
 
-    With ``observed_memory`` (``navigator_observed``) the memory is not carried but read from the
-    observation: the last step's heading is its turn rate over the turn gain (the ``velocity``
-    observation's measured rate), less the goal's bearing now. The controller is then a function
-    of the observation alone (its only state: whether the episode has taken a step), the teacher
-    a network can imitate: the carried memory follows the navigator's own past choices, which on
-    states a network drives into are not the network's (docs/LEARNING.md, the eighth round).
+    With ``observed_memory`` (``navigator_observed``, which also keeps 1.5 times the margin from
+    obstacles: room for a network's errors when it imitates) the memory is not carried but read
+    from the observation: the last step's heading is its turn rate over the turn gain (the
+    ``velocity`` observation's measured rate), less the goal's bearing now. The controller is
+    then a function of the observation alone (its only state: whether the episode has taken a
+    step), the teacher a network can imitate: the carried memory follows the navigator's own
+    past choices, which on states a network drives into are not the network's (docs/LEARNING.md,
+    the eighth round).
     """
 
     name = "navigator"
