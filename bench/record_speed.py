@@ -1,6 +1,7 @@
 """Env steps/s without recording and while recording each bag format, camera off and 64x64.
 
-Usage: ``python bench/record_speed.py [--steps N] [--block B] [--out DIR] [--no-detections]``
+Usage: ``python bench/record_speed.py [--steps N] [--block B] [--out DIR] [--no-detections]
+[--writer inline|process]``
 
 Each recording configuration is measured as a group: a plain ``BubbleRob-v0`` and the same env
 wrapped in a ``RosBagRecorder`` (with the camera: one recording without ``/detections`` and one
@@ -36,6 +37,7 @@ import numpy as np
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
 from bubblerob_env.ros import RosBagRecorder
 from bubblerob_env.ros.messages.topics import Topics
+from bubblerob_env.ros.recorder import WRITERS
 
 RECORDINGS = (
     ("mcap", "zstd"),
@@ -59,7 +61,14 @@ def _run_block(env: Any, actions: np.ndarray) -> float:
 
 
 def measure_group(
-    camera: bool, fmt: str, compression: str, detections: bool, steps: int, block: int, out: Path
+    camera: bool,
+    fmt: str,
+    compression: str,
+    detections: bool,
+    steps: int,
+    block: int,
+    out: Path,
+    writer: str = "inline",
 ) -> tuple[dict[str, list[float]], dict[str, float]]:
     """Block times of a plain env and its recordings, taking turns; seconds to finish each bag.
 
@@ -78,6 +87,7 @@ def measure_group(
             compression=compression,
             overwrite=True,
             topics=topics,
+            writer=writer,
         )
     for env in envs.values():
         env.reset(seed=0)
@@ -110,6 +120,12 @@ def main() -> None:
     parser.add_argument("--block", type=int, default=500, help="steps per turn (default 500)")
     parser.add_argument("--out", type=Path, default=None, help="where bags go (default: temp)")
     parser.add_argument("--quick", action="store_true", help="smoke test: 80 steps")
+    parser.add_argument(
+        "--writer",
+        choices=WRITERS,
+        default="inline",
+        help="who writes the bags: this process or a process of their own (default inline)",
+    )
     parser.add_argument(
         "--no-detections", action="store_true", help="camera rows without /detections only"
     )
@@ -151,7 +167,7 @@ def _measure_rows(
         camera_rows = []
         for fmt, compression in RECORDINGS:
             times, close_s = measure_group(
-                camera, fmt, compression, not args.no_detections, steps, block, out
+                camera, fmt, compression, not args.no_detections, steps, block, out, args.writer
             )
             plain_all += times["plain"]
             for kind in ("recording", "detections"):

@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 
 from bubblerob_env.mapping import DEFAULT_RESOLUTION
 from bubblerob_env.ros.bags import safety
+from bubblerob_env.ros.bags.process import ProcessBagSink, open_bag_in_process
 from bubblerob_env.ros.bags.sinks import (
     DEFAULT_DISTRO,
     FORMATS,
@@ -42,6 +43,7 @@ __all__ = [
     "EPISODES_KEY",
     "RECORDING_KEY",
     "RosBagRecorder",
+    "WRITERS",
     "recorded_env_fns",
 ]
 
@@ -50,6 +52,8 @@ EPISODES_KEY = "bubblerob.episodes"
 JSON list with each episode's number, seed and start time. The env id, kwargs, policy and the rest
 are under ``bubblerob.recording``; every episode's full metadata is on the episode topic."""
 RECORDING_KEY = "bubblerob.recording"
+WRITERS = ("inline", "process")
+"""Who writes a bag: the recording process, or a process of its own."""
 _SUMMARY_KEYS = ("episode", "seed", "start_time_ns")
 _SHARED_KEYS = ("episode", "seed", "rng_state", "options", "start_time_ns", "first_seq")
 
@@ -81,6 +85,7 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
         per_episode: bool = False,
         start_time: float | str | None = None,
         map_resolution: float = DEFAULT_RESOLUTION,
+        writer: str = "inline",
     ) -> None:
         """Wrap ``env`` and create the bag.
 
@@ -101,6 +106,10 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
                 time runs from it; with ``per_episode`` every bag starts at it.
             map_resolution: Metres per cell of each episode's ``/map`` (the ground-truth
                 occupancy grid, written once per episode at its start stamp), 0.005 to 1.
+            writer: ``"inline"`` (default): this process writes the bag; ``"process"``: a
+                process of its own appends, compresses and writes the packed frames
+                (:mod:`~bubblerob_env.ros.bags.process`), off the stepping loop on a machine
+                with two or more cores; the same bytes.
         """
         super().__init__(env)
         if not isinstance(env.observation_space, gym.spaces.Dict):  # before the bag is made
@@ -111,6 +120,9 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
             )
         if format not in FORMATS:
             raise ValueError(f"unknown bag format {format!r}; choose one of {list(FORMATS)}")
+        if writer not in WRITERS:
+            raise ValueError(f"unknown bag writer {writer!r}; choose one of {list(WRITERS)}")
+        self.writer = writer
         self.format = format
         self.distro = distro or DEFAULT_DISTRO[format]
         self.compression = compression
@@ -136,7 +148,7 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
         facts = {"distro": self.distro, "format": self.format, "topics": self.topics.to_dict()}
         self._facts = jsonable(facts | self.metadata)  # every episode's: made once
         self._goals = isinstance(env.unwrapped, BubbleRobNavEnv)  # goals set between steps
-        self._sink: BagSink | None = None
+        self._sink: BagSink | ProcessBagSink | None = None
         self._closed = False
         self._bag_paths: list[Path] = []
         self._open_bag(0)
@@ -155,7 +167,8 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
         return self.path
 
     def _open_bag(self, episode: int) -> None:
-        sink = open_bag(
+        opener = open_bag_in_process if self.writer == "process" else open_bag
+        sink = opener(
             self._target(episode), self.format, self.distro, self.compression, self.overwrite
         )
         self._bag_paths.append(sink.path)

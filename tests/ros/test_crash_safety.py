@@ -28,8 +28,10 @@ CHILD = textwrap.dedent(
     import bubblerob_env
     from bubblerob_env.ros import RosBagRecorder
 
-    path, fmt, mode = sys.argv[1], sys.argv[2], sys.argv[3]
-    env = RosBagRecorder(gym.make("BubbleRob-v0", max_episode_steps=40), path, format=fmt)
+    path, fmt, mode, writer = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4]
+    env = RosBagRecorder(
+        gym.make("BubbleRob-v0", max_episode_steps=40), path, format=fmt, writer=writer
+    )
     env.reset(seed=0)
     action = np.array([0.6, 0.5], dtype=np.float32)
     step = 0
@@ -57,12 +59,12 @@ def _frames(path):
     return steps
 
 
-def _run_child(tmp_path, fmt, mode, signum=None, at_step=60):
+def _run_child(tmp_path, fmt, mode, signum=None, at_step=60, writer="inline"):
     script = tmp_path / "child.py"
     script.write_text(CHILD)
     bag = tmp_path / "bag"
     child = subprocess.Popen(
-        [sys.executable, str(script), str(bag), fmt, mode],
+        [sys.executable, str(script), str(bag), fmt, mode, writer],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         bufsize=0,  # unbuffered: lines read ahead of the signal would be lost to communicate()
@@ -125,10 +127,13 @@ def test_uncaught_exception_leaves_a_complete_bag(tmp_path, fmt):
     assert _frames(path) == last == 25
 
 
-@pytest.mark.parametrize("fmt", ["mcap", "sqlite3", "ros1"])
+@pytest.mark.parametrize(
+    ("fmt", "writer"),
+    [("mcap", "inline"), ("sqlite3", "inline"), ("ros1", "inline"), ("mcap", "process")],
+)
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
-def test_signal_leaves_a_bag_with_every_completed_step(tmp_path, fmt, signum):
-    returncode, last, err, bag = _run_child(tmp_path, fmt, "loop", signum)
+def test_signal_leaves_a_bag_with_every_completed_step(tmp_path, fmt, writer, signum):
+    returncode, last, err, bag = _run_child(tmp_path, fmt, "loop", signum, writer=writer)
     if signum == signal.SIGTERM:
         assert returncode == 128 + signal.SIGTERM, err
     else:
@@ -139,18 +144,23 @@ def test_signal_leaves_a_bag_with_every_completed_step(tmp_path, fmt, signum):
 
 
 @pytest.mark.parametrize(
-    "fmt",
+    ("fmt", "writer"),
     [
-        "mcap",
-        "sqlite3",
+        ("mcap", "inline"),
+        ("sqlite3", "inline"),
         pytest.param(  # recovered with Debian's rosbag reindex
-            "ros1", marks=pytest.mark.skipif(missing_debian_ros() is not None, reason="no rosbag")
+            "ros1",
+            "inline",
+            marks=pytest.mark.skipif(missing_debian_ros() is not None, reason="no rosbag"),
         ),
+        ("mcap", "process"),  # the writer process reads what was sent, then stops unfinished
     ],
 )
-def test_hard_kill_loses_at_most_the_current_episode(tmp_path, fmt):
+def test_hard_kill_loses_at_most_the_current_episode(tmp_path, fmt, writer):
     # SIGKILL cannot be caught: the bag keeps what was flushed at the end of each episode.
-    returncode, last, _, bag = _run_child(tmp_path, fmt, "loop", signal.SIGKILL, at_step=100)
+    returncode, last, _, bag = _run_child(
+        tmp_path, fmt, "loop", signal.SIGKILL, at_step=100, writer=writer
+    )
     assert returncode == -signal.SIGKILL
     path = bag.with_suffix(".bag") if fmt == "ros1" else bag
     ends = _episode_ends(last + 41)

@@ -1,0 +1,363 @@
+"""A bag written by a process of its own, as ``rosbag record`` does: :func:`open_bag_in_process`.
+
+The recording process still gathers and packs each batch of frames; a writer process (forked,
+so it starts in milliseconds) appends them to the bag's chunks, compresses and writes them. On a
+machine with two or more cores the chunks' compression and writes leave the stepping loop. The
+bytes are the same: the writer runs the same :class:`~bubblerob_env.ros.bags.sinks.BagSink` on the
+same calls in the same order.
+
+What holds as with a bag written in the recording process:
+
+- :meth:`ProcessBagSink.flush` (each episode's end) waits until the writer has put everything so
+  far on disk: a hard kill, of either process or both, loses at most the current episode.
+- If the recording process dies, the writer reads what was sent before, then the pipe's end, and
+  stops without finishing the bag (as the recording process would have): ``close`` finishes it.
+- The writer ignores SIGINT and SIGTERM (a Ctrl-C reaches the whole process group): the
+  recorder's own handlers close the bag through it.
+- An error in the writer (a full disk) is raised in the recording process, as the same exception,
+  at the next write (or flush, or close) after it happened; a writer that died is reported
+  (:class:`WriterDiedError`), never waited on forever.
+"""
+
+from __future__ import annotations
+
+import mmap
+import multiprocessing
+import multiprocessing.connection
+import signal
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bubblerob_env.ros.bags.sinks import DEFAULT_DISTRO, FORMATS, BagSink, bag_path, open_bag
+from bubblerob_env.ros.fastpath.framing import (
+    FrameLayout,
+    Framing,
+    PackedBatchWriter,
+    PackedWriter,
+    Record,
+)
+
+__all__ = ["ProcessBagSink", "WriterDiedError", "open_bag_in_process"]
+
+_ANSWERED = ("add_topic", "framing", "close")
+"""Requests the recorder waits on; errors of the others come back as ``"async"``, at once."""
+_POLL_S = 0.5  # how often a wait looks whether the writer is still alive
+_SLOTS = 4
+"""Batches of packed frames the writer may be behind; each goes through shared memory."""
+_SLOT_BYTES = 2**20 + 2**16
+"""A slot's size: a fan-out batch is about a MiB at most (bigger ones go through the pipe)."""
+
+
+class WriterDiedError(OSError):
+    """The process writing a bag is gone (killed, or out of memory)."""
+
+
+def _serve(
+    conn: multiprocessing.connection.Connection,
+    ours: multiprocessing.connection.Connection,
+    args: tuple[Any, ...],
+    shared: mmap.mmap,
+) -> None:
+    """The writer process: open the bag, then carry out each request until close or the end."""
+    ours.close()  # the recorder's end: else its death would never end our reads
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the recorder closes the bag through us
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    try:
+        sink = open_bag(*args)
+    except BaseException as error:  # noqa: BLE001 - every error goes back to the recorder
+        conn.send(("error", error))
+        return
+    conn.send(("ok", None))
+    state = _Writer(sink, conn, shared)
+    while True:
+        try:
+            requests = conn.recv()  # a list, in order
+        except (EOFError, OSError):  # the recorder died: leave the bag as it was (unfinished)
+            return  # multiprocessing ends the process without atexit hooks or destructors
+        for request in requests:
+            if state.carry_out(request):
+                return
+
+
+class _Writer:
+    """The writer process's side: the bag and what it needs to read batches."""
+
+    def __init__(
+        self, sink: BagSink, conn: multiprocessing.connection.Connection, shared: mmap.mmap
+    ) -> None:
+        self.sink = sink
+        self.conn = conn
+        self.layouts: list[FrameLayout] = []
+        self.done = np.frombuffer(shared, dtype=np.int64, count=1)  # batches written
+        self.slots = memoryview(shared)[8:]
+        self.failed = False  # after an error, writes are left out: the first error is reported
+
+    def carry_out(self, request: tuple[Any, ...]) -> bool:
+        """Do ``request``, answering it if the recorder waits; whether it was the close."""
+        kind: str = request[0]
+        try:
+            if kind == "many":
+                self.write_many(*request[1:])
+                return False
+            if kind == "layout":
+                self.layouts.append(request[1])
+                return False
+            reply = None
+            if not self.failed or kind in ("close", "flush"):
+                reply = _carry_out(self.sink, request)
+        except BaseException as error:  # noqa: BLE001 - raised in the recorder
+            self.failed = True
+            self.conn.send(("error" if kind in _ANSWERED else "async", error))
+            return kind == "close"
+        if kind in _ANSWERED:
+            self.conn.send(("ok", reply))
+        return kind == "close"
+
+    def write_many(self, layout_index: int, slot: int, size: int, stamp_bytes: bytes) -> None:
+        """A batch of packed frames, from its slot of shared memory (or the pipe, ``slot < 0``)."""
+        data: Any
+        if slot < 0:
+            data = self.conn.recv_bytes()
+        else:
+            data = self.slots[slot * _SLOT_BYTES : slot * _SLOT_BYTES + size]
+        stamps = np.frombuffer(stamp_bytes, dtype=np.int64).reshape(2, -1)
+        try:
+            if not self.failed:
+                self.sink.packed_batch_writer()(data, self.layouts[layout_index], *stamps)
+        finally:
+            if slot >= 0:
+                self.done[0] += 1  # the slot is free again
+
+
+def _carry_out(sink: BagSink, request: tuple[Any, ...]) -> Any:
+    kind = request[0]
+    if kind == "one":
+        _, data, layout, stamp, action_stamp = request
+        sink.packed_writer()(data, layout, stamp, action_stamp)
+    elif kind == "records":
+        sink.write_batch(request[1])
+    elif kind == "add_topic":
+        sink.add_topic(*request[1:])
+    elif kind == "framing":
+        return sink.framing()
+    elif kind == "metadata":
+        sink.set_metadata(*request[1:])
+    elif kind == "flush":
+        sink.flush()
+    elif kind == "close":
+        sink.close()
+    return None
+
+
+class ProcessBagSink:
+    """A :class:`~bubblerob_env.ros.bags.sinks.BagSink` whose writing is done by another process.
+
+    Made by :func:`open_bag_in_process`; used like the sink :func:`~.sinks.open_bag` returns.
+    """
+
+    def __init__(self, path: Path, fmt: str, distro: str, args: tuple[Any, ...]) -> None:
+        self.path = path
+        self.format = fmt
+        self.distro = distro
+        self.closed = False
+        self._framing: Framing | None = None
+        self._topics: list[str] = []
+        self._layouts: dict[FrameLayout, int] = {}
+        self._shared = mmap.mmap(-1, 8 + _SLOTS * _SLOT_BYTES)  # shared with the forked writer
+        self._done = np.frombuffer(self._shared, dtype=np.int64, count=1)
+        self._slots = np.frombuffer(self._shared, dtype=np.uint8, offset=8)
+        self._sent = 0  # batches sent
+        self._queue: list[tuple[Any, ...]] = []  # requests not sent yet
+        self._dead: WriterDiedError | None = None  # the writer died: every call says so
+        context = multiprocessing.get_context("fork")
+        self._conn, child = context.Pipe()
+        self._process = context.Process(
+            target=_serve, args=(child, self._conn, args, self._shared), daemon=False
+        )
+        self._process.start()
+        child.close()  # ours goes: the writer sees the pipe's end if we die
+        try:
+            self._wait()
+        except BaseException:
+            self.closed = True
+            self._process.join()
+            self._conn.close()
+            raise
+
+    # -- talking to the writer ------------------------------------------------------------------
+
+    def _died(self) -> WriterDiedError:
+        if self._dead is None:
+            self.closed = True
+            self._process.join(timeout=5)
+            code = self._process.exitcode
+            how = f"was killed by signal {-code}" if code and code < 0 else f"exited ({code})"
+            text = f"the process writing bag {self.path} {how}: the bag is unfinished"
+            self._dead = WriterDiedError(text)
+        return self._dead
+
+    def _wait(self) -> Any:
+        """The writer's answer to the last request that has one (an earlier write's error first)."""
+        earlier: BaseException | None = None
+        while True:
+            try:
+                ready = self._conn.poll(_POLL_S)
+                message = self._conn.recv() if ready else None
+            except (EOFError, ConnectionError):
+                raise self._died() from None
+            if message is None:
+                if not self._process.is_alive():
+                    raise self._died()
+                continue
+            status, value = message
+            if status == "async":
+                earlier = earlier or value
+                continue
+            if earlier is not None:
+                raise earlier
+            if status == "error":
+                raise value
+            return value
+
+    def _send(self, request: tuple[Any, ...], now: bool = False) -> None:
+        """Queue ``request``; with ``now``, send the queue (one message: one wake-up)."""
+        if self.closed:
+            raise self._dead or ValueError(f"bag {self.path} is closed")
+        self._queue.append(request)
+        if now:
+            self._push()
+
+    def _push(self) -> None:
+        queue, self._queue = self._queue, []
+        try:
+            if self._conn.poll():  # an earlier write failed: say so at once
+                raise self._conn.recv()[1]
+            self._conn.send(queue)
+        except (EOFError, ConnectionError):
+            raise self._died() from None
+
+    def _ask(self, request: tuple[Any, ...]) -> Any:
+        self._send(request, now=True)
+        return self._wait()
+
+    # -- the Sink protocol ----------------------------------------------------------------------
+
+    def add_topic(self, topic: str, msgtype: str, latched: bool = False) -> None:
+        """Declare ``topic`` with type ``msgtype`` (the distro's definition goes in the bag)."""
+        self._ask(("add_topic", topic, msgtype, latched))
+        self._topics.append(topic)
+        self._framing = None
+
+    def write_batch(self, records: Sequence[Record]) -> None:
+        """Append messages; topics must have been added."""
+        self._send(("records", list(records)))
+
+    def framing(self) -> Framing | None:
+        """How the bag frames records (asked of the writer once per set of topics)."""
+        if self._framing is None:
+            self._framing = self._ask(("framing",))
+        return self._framing
+
+    def write_packed(self, data: bytes, layout: FrameLayout, stamp_ns: int, action_ns: int) -> None:
+        """Append one packed frame."""
+        self._send(("one", bytes(data), layout, int(stamp_ns), int(action_ns)))
+
+    def packed_writer(self) -> PackedWriter:
+        """:meth:`write_packed`."""
+        return self.write_packed
+
+    def write_packed_batch(
+        self, data: Any, layout: FrameLayout, stamps: NDArray[Any], action_stamps: NDArray[Any]
+    ) -> None:
+        """Send ``len(stamps)`` packed frames: their bytes are copied into the pipe now."""
+        index = self._layouts.get(layout)
+        if index is None:
+            index = self._layouts[layout] = len(self._layouts)
+            self._send(("layout", layout))
+        size = len(stamps) * layout.size
+        both = np.concatenate((stamps, action_stamps)).astype(np.int64, copy=False).tobytes()
+        if size > _SLOT_BYTES:  # a batch of huge frames: through the pipe
+            self._send(("many", index, -1, size, both), now=True)
+            try:
+                self._conn.send_bytes(memoryview(data).cast("B")[:size])
+            except (EOFError, ConnectionError):
+                raise self._died() from None
+        else:
+            self._wait_for_slot()
+            slot = self._sent % _SLOTS
+            start = slot * _SLOT_BYTES
+            self._slots[start : start + size] = np.frombuffer(data, dtype=np.uint8, count=size)
+            self._send(("many", index, slot, size, both), now=True)
+        self._sent += 1
+
+    def _wait_for_slot(self) -> None:
+        """Wait until the writer is fewer than ``_SLOTS`` batches behind."""
+        while self._sent - int(self._done[0]) >= _SLOTS:
+            if self._conn.poll(0.0005):  # an error of a batch: raised at once
+                raise self._conn.recv()[1]
+            if not self._process.is_alive():
+                raise self._died()
+
+    def packed_batch_writer(self) -> PackedBatchWriter:
+        """:meth:`write_packed_batch`."""
+        return self.write_packed_batch
+
+    def set_metadata(self, key: str, value: str) -> None:
+        """Bag-level metadata (ROS 2 ``custom_data``); ROS 1: ignored."""
+        self._send(("metadata", key, value))
+
+    def flush(self) -> None:
+        """Have the writer put everything so far on disk (it does so after the batches before).
+
+        Not waited on: if this process dies, the writer still reads every request sent before.
+        """
+        self._send(("flush",), now=True)
+
+    def close(self) -> None:
+        """Finish the bag (index, summary) and wait for the writer to end. Safe twice."""
+        if self.closed:
+            return
+        try:
+            try:  # even after an error: the bag is finished
+                self._conn.send([*self._queue, ("close",)])
+            except (EOFError, ConnectionError):
+                raise self._died() from None
+            self._wait()
+        finally:
+            self.closed = True
+            self._process.join(timeout=30)
+            if self._process.is_alive():  # pragma: no cover - a writer stuck past its close
+                self._process.kill()
+                self._process.join()
+            self._conn.close()
+            del self._done, self._slots
+            self._shared.close()
+
+    @property
+    def topics(self) -> tuple[str, ...]:
+        """Topics added so far."""
+        return tuple(self._topics)
+
+
+def open_bag_in_process(
+    path: str | Path,
+    fmt: str = "mcap",
+    distro: str | None = None,
+    compression: str | None = None,
+    overwrite: bool = False,
+    chunk_size: int | None = None,
+) -> ProcessBagSink:
+    """:func:`~bubblerob_env.ros.bags.sinks.open_bag`, with the bag written by a process of its own.
+
+    The arguments, the checks and the errors are :func:`~.sinks.open_bag`'s (raised here).
+    """
+    if "fork" not in multiprocessing.get_all_start_methods():
+        raise ValueError("a bag writer process needs the 'fork' start method (Linux, macOS)")
+    args = (path, fmt, distro, compression, overwrite, chunk_size)
+    if fmt not in FORMATS:
+        raise ValueError(f"unknown bag format {fmt!r}; choose one of {list(FORMATS)}")
+    return ProcessBagSink(bag_path(path, fmt), fmt, distro or DEFAULT_DISTRO[fmt], args)

@@ -1,0 +1,115 @@
+"""A bag written by a process of its own (``writer="process"``): the same bytes, the same errors.
+
+The crash-safety guarantees with a writer process (signals, hard kill) are checked in
+``test_crash_safety.py``, next to the inline writer's.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+from bubblerob_env.ros import RosBagRecorder
+from bubblerob_env.ros.bags.process import WriterDiedError
+
+
+def _record(path, fmt, compression, writer, steps=300):
+    env = RosBagRecorder(
+        gym.make("BubbleRob-v0", max_episode_steps=70),
+        path,
+        format=fmt,
+        compression=compression,
+        writer=writer,
+        start_time=1.7e9,
+        metadata={"policy": "test"},
+    )
+    env.reset(seed=3)
+    actions = np.random.default_rng(0).uniform(-0.2, 1.0, size=(steps, 2)).astype(np.float32)
+    for action in actions:
+        _, _, terminated, truncated, _ = env.step(action)
+        if terminated or truncated:
+            env.reset()
+    env.close()
+
+
+@pytest.mark.parametrize(
+    ("fmt", "compression"), [("mcap", "zstd"), ("mcap", "none"), ("sqlite3", None), ("ros1", "lz4")]
+)
+def test_the_same_bytes_as_the_inline_writer(tmp_path, fmt, compression):
+    files = {}
+    for writer in ("inline", "process"):
+        root = tmp_path / writer
+        _record(root / "bag", fmt, compression, writer)
+        files[writer] = {
+            p.relative_to(root): p.read_bytes() for p in root.rglob("*") if p.is_file()
+        }
+    assert len(files["inline"]) >= 1
+    assert files["process"] == files["inline"]
+
+
+def test_a_writer_that_dies_is_reported_not_waited_on(tmp_path):
+    env = RosBagRecorder(gym.make("BubbleRob-v0"), tmp_path / "bag", writer="process")
+    env.reset(seed=0)
+    (writer,) = multiprocessing.active_children()
+    os.kill(writer.pid, signal.SIGKILL)
+    writer.join(timeout=10)
+    said = r"writing bag .*bag was killed by signal 9: the bag is unfinished"
+    with pytest.raises(WriterDiedError, match=said):
+        for _ in range(400):  # the first batch sent finds it gone
+            env.step(np.array([0.5, 0.5], dtype=np.float32))
+    with pytest.raises(WriterDiedError, match=said):  # and closing says so again
+        env.close()
+    env.close()  # then closing again does nothing
+
+
+FULL_DISK = textwrap.dedent(
+    """
+    import resource, signal, sys
+    import gymnasium as gym
+    import numpy as np
+    import bubblerob_env
+    from bubblerob_env.ros import RosBagRecorder
+
+    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # writes fail with EFBIG, as on a full disk
+    resource.setrlimit(resource.RLIMIT_FSIZE, (150_000, 150_000))
+    env = RosBagRecorder(gym.make("BubbleRob-v0"), "bag", writer=sys.argv[1])
+    env.reset(seed=0)
+    try:
+        for _ in range(3000):
+            _, _, terminated, truncated, _ = env.step(np.array([0.5, 0.5], dtype=np.float32))
+            if terminated or truncated:
+                env.reset()
+        env.close()
+    except OSError as error:
+        print(type(error).__name__, error)
+    try:
+        env.close()
+    except OSError as error:
+        print("close:", type(error).__name__, error)
+    """
+)
+
+
+def test_a_full_disk_gives_the_inline_writers_error(tmp_path):
+    said = {}
+    for writer in ("inline", "process"):
+        (tmp_path / writer).mkdir()
+        run = subprocess.run(
+            [sys.executable, "-c", FULL_DISK, writer],
+            cwd=tmp_path / writer,
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+        assert run.returncode == 0, run.stderr
+        said[writer] = run.stdout.splitlines()
+    assert said["inline"] and "File too large" in said["inline"][0]
+    assert said["process"] == said["inline"]
