@@ -128,6 +128,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=_override,
         help="override a hyperparameter (YAML value), e.g. --set n_steps=512",
     )
+    parser.add_argument(
+        "--conf-file",
+        "-conf",
+        type=Path,
+        metavar="YML",
+        help="hyperparameters from this file (rl-zoo's format, keyed by env id) instead of "
+        "train/hyperparams/<algo>.yml, e.g. train/hyperparams/crowd.yml",
+    )
     parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     add_foxglove_option(parser)  # the first training env, within WATCH_BUDGET of the wall time
     add_sweep_arguments(parser)  # --ray, --seeds (Ray is imported only to run)
@@ -149,7 +157,7 @@ def _checked(args: argparse.Namespace, out: Path) -> dict[str, Any]:
     check_train_arguments(args)
     overrides = parse_overrides(args.set)
     reject_project_settings(overrides)
-    config = {**load_hyperparams(args.algo, args.env), **overrides}
+    config = {**load_hyperparams(args.algo, args.env, args.conf_file), **overrides}
     check_hyperparams(args.algo, config)
     for seed in args.seeds or [args.seed]:
         check_training_seeds(seed, int(args.n_envs or config.get("n_envs", 1)))
@@ -247,6 +255,7 @@ def _train_one(
             torch_threads=args.torch_threads,
             foxglove=args.foxglove,
             robots=args.robots or 8,
+            conf_file=args.conf_file,
         )
     except OSError as error:
         where = f" ({error.filename})" if error.filename else ""

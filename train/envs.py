@@ -6,7 +6,7 @@ default: with small, fast envs on a 2-core machine the inter-process round trips
 ``batched`` (:class:`train.sb3_vec.BubbleRobSB3VecEnv`, the same episodes) or ``worlds``
 (:class:`train.worlds_vec.WorldsSB3VecEnv`: ``n_envs`` worlds of ``robots`` robots, a slot per
 robot, for one policy shared by all; evaluated on single-robot episodes) or ``crowd`` (the
-same over the :data:`CROWD_WORLDS` mix, ``n_envs`` worlds of each; a Nav env id) or ``warp``
+same over the :data:`CROWD_WORLDS` mix, ``n_envs`` x each group's weight; a Nav env id) or ``warp``
 (:class:`train.sb3_warp.WarpSB3VecEnv`: ``n_envs`` MuJoCo Warp worlds on Warp's default device,
 a GPU where there is one; evaluated on the CPU env, where the policy will run). The evaluation env
 has one env per validation episode (``train/validation.py``), seeded from the first validation
@@ -173,22 +173,24 @@ WORLDS_TASKS = {
 
 _CIRCLE = {"scenario": "circle", "circle_jitter": 0.1, "world_steps": 500, "num_obstacles": (0, 0)}
 CROWD_WORLDS = (
-    (4, _CIRCLE),
-    (8, _CIRCLE),
-    (12, _CIRCLE),
-    (20, _CIRCLE),
-    (8, {"scenario": "random"}),
+    (1, 4, _CIRCLE),
+    (1, 8, _CIRCLE),
+    (2, 12, _CIRCLE),
+    (3, 20, _CIRCLE),
+    (4, 8, {"scenario": "random"}),
 )
-"""``--vec-env crowd``: (robots, kwargs) of each group of ``n_envs`` worlds. Circle crossings
-of 4 to 20 robots, no obstacles (a seeded turn and 0.1 m jitter along the circle; redrawn every
-500 steps, 25 s, so that the crossing starts again, a robot that ends meanwhile restarting alone
-with a random goal) and random arenas of 8 robots among the obstacles."""
+"""``--vec-env crowd``: (worlds per ``n_envs``, robots, kwargs) of each group of worlds. Circle
+crossings of 4 to 20 robots, no obstacles (a seeded turn and 0.1 m jitter along the circle;
+redrawn every 500 steps, 25 s, so that the crossing starts again, a robot that ends meanwhile
+restarting alone with a random goal) and random arenas of 8 robots among the obstacles; weighted
+to the crowds the policy found hard (12 and 20 robots, random arenas: docs/LEARNING.md, the
+seventh round): 128 robots per ``n_envs``."""
 
 
 def worlds_envs(
     env_id: str,
     num_worlds: int,
-    robots: int | Sequence[tuple[int, dict[str, Any]]],
+    robots: int | Sequence[tuple[int, int, dict[str, Any]]],
     seed: int,
     env_kwargs: dict[str, Any],
     env_wrapper: Any = None,
@@ -218,7 +220,7 @@ def worlds_envs(
     else:  # a mix of groups (--vec-env crowd)
         if task != "nav":
             raise ValueError(f"--vec-env crowd steps a Nav env (BubbleRobNav-v0), not {env_id!r}")
-        groups = [(num_worlds, n, own) for n, own in robots]
+        groups = [(num_worlds * weight, n, own) for weight, n, own in robots]
         envs = WorldsSB3VecEnv.mixed(groups, **kwargs)
     envs.seed(seed)
     return batch_wrapped(envs, env_id, env_kwargs, env_wrapper)

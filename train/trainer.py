@@ -52,9 +52,10 @@ def run_config(
     n_envs: int | None,
     seed: int,
     overrides: dict[str, Any] | None,
+    conf_file: Path | None = None,
 ) -> dict[str, Any]:
     """The hyperparameters a run uses: the YAML's, overridden, checked (``ValueError``)."""
-    config = load_hyperparams(algo, env_id)
+    config = load_hyperparams(algo, env_id, conf_file)
     config.update(overrides or {})
     reject_project_settings(config)
     if timesteps is not None:
@@ -83,10 +84,12 @@ def train(
     torch_threads: int = DEFAULT_TORCH_THREADS,
     robots: int = 8,
     foxglove: tuple[str, int] | None = None,
+    conf_file: Path | None = None,
 ) -> Path:
     """Train and save; returns the path of the final model.
 
-    ``overrides`` replace hyperparameters from the YAML (``--set key=value`` on the command line).
+    ``overrides`` replace hyperparameters from the YAML (``--set key=value`` on the command line);
+    the YAML is ``hyperparams/<algo>.yml``, or ``conf_file`` (``--conf-file``).
     ``vec_env`` (``dummy``, ``subproc`` or ``batched``) says how the ``n_envs`` training envs are
     stepped; ``batched`` is :class:`train.sb3_vec.BubbleRobSB3VecEnv`, same episodes; ``worlds``
     is :class:`train.worlds_vec.WorldsSB3VecEnv`, ``n_envs`` worlds of ``robots`` robots.
@@ -97,7 +100,7 @@ def train(
 
     if vec_env not in VEC_ENVS:
         raise ValueError(f"vec_env must be one of {list(VEC_ENVS)}, got {vec_env!r}")
-    config = run_config(algo, env_id, timesteps, n_envs, seed, overrides)
+    config = run_config(algo, env_id, timesteps, n_envs, seed, overrides, conf_file)
     settings: dict[str, Any] = {"vec_env": vec_env, "torch_threads": torch_threads}
     if vec_env == "worlds":
         settings["robots"] = robots

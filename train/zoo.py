@@ -40,15 +40,24 @@ PROJECT_SETTINGS = {"vec_env": "--vec-env", "torch_threads": "--torch-threads"}
 """Settings of this project's trainer that rl_zoo3 does not know: command-line options, not YAML."""
 
 
-def load_hyperparams(algo: str, env_id: str) -> dict[str, Any]:
-    """The hyperparameters of ``algo`` for ``env_id`` from ``hyperparams/<algo>.yml``."""
+def load_hyperparams(algo: str, env_id: str, conf_file: Path | None = None) -> dict[str, Any]:
+    """The hyperparameters of ``algo`` for ``env_id`` from ``hyperparams/<algo>.yml``.
+
+    ``conf_file``: another file of the same format instead (rl_zoo3's ``--conf-file``), e.g.
+    ``train/hyperparams/crowd.yml``, the shared crowd policy's recipe.
+    """
     if algo not in ALGOS:
         raise ValueError(f"unknown algo {algo!r}; choose one of {list(ALGOS)}")
     import yaml
 
-    table = yaml.safe_load((HYPERPARAMS_DIR / f"{algo}.yml").read_text())
-    if env_id not in table:
-        raise ValueError(f"no {algo} hyperparameters for {env_id!r}; known: {sorted(table)}")
+    path = HYPERPARAMS_DIR / f"{algo}.yml" if conf_file is None else Path(conf_file)
+    try:
+        table = yaml.safe_load(path.read_text())
+    except OSError as error:
+        raise ValueError(f"--conf-file {path}: {error.strerror or error}") from None
+    if not isinstance(table, dict) or env_id not in table:
+        known = sorted(table) if isinstance(table, dict) else []
+        raise ValueError(f"no {algo} hyperparameters for {env_id!r} in {path}; known: {known}")
     return dict(table[env_id])
 
 

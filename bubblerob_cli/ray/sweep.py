@@ -102,6 +102,7 @@ def _settings(args: argparse.Namespace, overrides: dict[str, Any], command: str)
         "overrides": overrides,
         "vec_env": args.vec_env,
         "torch_threads": args.torch_threads,
+        "conf_file": args.conf_file,
     }
 
 

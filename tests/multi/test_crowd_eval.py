@@ -106,16 +106,27 @@ def test_evaluate_robots_on_a_nav_env_prints_the_crowd_table(
     assert "circle_jitter 2.0 m" in capsys.readouterr().err
 
 
-def test_python_m_train_vec_env_crowd_trains_on_the_mix(tmp_path: Path) -> None:
+def test_the_crowd_recipe_file_trains_on_the_weighted_mix(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     from bubblerob_cli.train import main
 
     out = tmp_path / "run"
+    recipe = Path(__file__).resolve().parents[2] / "train" / "hyperparams" / "crowd.yml"
     argv = [
-        "--env", "BubbleRobNav-v0", "--vec-env", "crowd", "--n-envs", "1", "--timesteps", "104",
-        "--set", "n_steps=2", "--set", "batch_size=104", "--set", "n_epochs=1",
-        "--set", "callback=null", "--set", "env_kwargs={laser_num_rays: 36}",
+        "--env", "BubbleRobNav-v0", "--vec-env", "crowd", "--conf-file", str(recipe),
+        "--timesteps", "1", "--set", "n_steps=2", "--set", "batch_size=256",
+        "--set", "n_epochs=1", "--set", "callback=null", "--set", "env_kwargs={laser_num_rays: 36}",
         "--eval-freq", "1000", "--eval-episodes", "1", "--no-progress", "--out", str(out),
     ]  # fmt: skip
     assert main(argv) == 0
     settings = json.loads((out / "settings.json").read_text())
     assert settings["vec_env"] == "crowd" and (out / "model.zip").is_file()
+    # n_envs 1 (the recipe's): circles of 4, 8, 2 x 12 and 3 x 20 robots, 4 random arenas of 8;
+    # one rollout of 2 steps of every robot.
+    robots = 4 + 8 + 2 * 12 + 3 * 20 + 4 * 8
+    assert json.loads((out / "train_time.json").read_text())["timesteps"] == 2 * robots
+    missing = tmp_path / "none.yml"
+    assert main(["--env", "BubbleRobNav-v0", "--conf-file", str(missing), "--out", str(out)]) == 2
+    error = capsys.readouterr().err.strip().splitlines()[-1]
+    assert error.endswith(f"--conf-file {missing}: No such file or directory")
