@@ -50,7 +50,12 @@ class _BatchWriters:
     """
 
     def __init__(self, sinks: list[Sink], detects: bool) -> None:
-        self.batch_writers = [] if detects else [sink.packed_batch_writer() for sink in sinks]
+        gathered = [getattr(sink, "write_gathered", None) for sink in sinks]
+        self.gathered_writers: list[Any] = [] if detects or None in gathered else gathered
+        """Sinks that pack the frames themselves (a bag written by another process) take the
+        frames as gathered: all of the group's, or none."""
+        packed = not detects and not self.gathered_writers
+        self.batch_writers = [sink.packed_batch_writer() for sink in sinks] if packed else []
         self.frame_writers = [(s.packed_writer(), s.write_batch) for s in sinks] if detects else []
 
     def write(
@@ -180,10 +185,17 @@ class MessageFanout:
         if batch is None or not len(batch):
             return
         count = len(batch)
-        columns = batch.columns()
+        gathered = batch.take()
+        packing = [sends for sends in self._batch_sends if not sends[2].gathered_writers]
+        for _, _, writers in self._batch_sends:
+            for write_gathered in writers.gathered_writers:
+                write_gathered(gathered, self.specs, self.topics)
+        if not packing:
+            return
+        columns = batch.convert(gathered)
         stamps, action_stamps = columns["log_ns"], columns["action_log_ns"]
         found = self._recognise(columns["image"], count) if self.detects else None
-        for distro, packer, writers in self._batch_sends:
+        for distro, packer, writers in packing:
             data = packer.pack_many(columns, count)
             if found is None:
                 writers.write(data, packer.layout, stamps, action_stamps)

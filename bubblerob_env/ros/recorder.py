@@ -9,6 +9,7 @@ episodes of a bag. With ``per_episode=True`` each episode gets its own bag inste
 from __future__ import annotations
 
 import json
+import multiprocessing
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -109,7 +110,8 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
             writer: ``"inline"`` (default): this process writes the bag; ``"process"``: a
                 process of its own appends, compresses and writes the packed frames
                 (:mod:`~bubblerob_env.ros.bags.process`), off the stepping loop on a machine
-                with two or more cores; the same bytes.
+                with two or more cores; the same bytes. A daemonic process (an ``AsyncVectorEnv``
+                worker) writes inline: it may not start processes.
         """
         super().__init__(env)
         if not isinstance(env.observation_space, gym.spaces.Dict):  # before the bag is made
@@ -167,7 +169,9 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
         return self.path
 
     def _open_bag(self, episode: int) -> None:
-        opener = open_bag_in_process if self.writer == "process" else open_bag
+        # A daemonic process (an AsyncVectorEnv worker) may not start one: it writes inline.
+        apart = self.writer == "process" and not multiprocessing.current_process().daemon
+        opener = open_bag_in_process if apart else open_bag
         sink = opener(
             self._target(episode), self.format, self.distro, self.compression, self.overwrite
         )

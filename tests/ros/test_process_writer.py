@@ -19,12 +19,14 @@ import pytest
 
 from bubblerob_env.ros import RosBagRecorder
 from bubblerob_env.ros.bags.process import WriterDiedError
+from bubblerob_env.ros.messages.topics import Topics
 
 
-def _record(path, fmt, compression, writer, steps=300):
+def _record(path, fmt, compression, writer, camera=False, steps=300):
     env = RosBagRecorder(
-        gym.make("BubbleRob-v0", max_episode_steps=70),
+        gym.make("BubbleRob-v0", max_episode_steps=70, camera=camera),
         path,
+        topics=Topics(detections=None),
         format=fmt,
         compression=compression,
         writer=writer,
@@ -41,13 +43,20 @@ def _record(path, fmt, compression, writer, steps=300):
 
 
 @pytest.mark.parametrize(
-    ("fmt", "compression"), [("mcap", "zstd"), ("mcap", "none"), ("sqlite3", None), ("ros1", "lz4")]
+    ("fmt", "compression", "camera"),
+    [
+        ("mcap", "zstd", False),
+        ("mcap", "zstd", True),  # batches of images through the shared memory
+        ("mcap", "none", False),
+        ("sqlite3", None, False),
+        ("ros1", "lz4", False),
+    ],
 )
-def test_the_same_bytes_as_the_inline_writer(tmp_path, fmt, compression):
+def test_the_same_bytes_as_the_inline_writer(tmp_path, fmt, compression, camera):
     files = {}
     for writer in ("inline", "process"):
         root = tmp_path / writer
-        _record(root / "bag", fmt, compression, writer)
+        _record(root / "bag", fmt, compression, writer, camera)
         files[writer] = {
             p.relative_to(root): p.read_bytes() for p in root.rglob("*") if p.is_file()
         }

@@ -1,21 +1,25 @@
 """A bag written by a process of its own, as ``rosbag record`` does: :func:`open_bag_in_process`.
 
-The recording process still gathers and packs each batch of frames; a writer process (forked,
-so it starts in milliseconds) appends them to the bag's chunks, compresses and writes them. On a
-machine with two or more cores the chunks' compression and writes leave the stepping loop. The
-bytes are the same: the writer runs the same :class:`~bubblerob_env.ros.bags.sinks.BagSink` on the
-same calls in the same order.
+The recording process only gathers each step's numbers (:class:`~bubblerob_env.ros.fastpath.batch.
+FrameBatch`) and hands each batch over through memory shared with a writer process (forked, so it
+starts in milliseconds); the writer converts and packs the frames, appends them to the bag's
+chunks, compresses and writes them (:mod:`~bubblerob_env.ros.bags.process_writer`). On a machine
+with two or more cores that work leaves the stepping loop. The bytes are the same: the writer
+packs with the same packer and runs the same :class:`~bubblerob_env.ros.bags.sinks.BagSink` on
+the same calls in the same order.
 
 What holds as with a bag written in the recording process:
 
-- :meth:`ProcessBagSink.flush` (each episode's end) waits until the writer has put everything so
-  far on disk: a hard kill, of either process or both, loses at most the current episode.
-- If the recording process dies, the writer reads what was sent before, then the pipe's end, and
-  stops without finishing the bag (as the recording process would have): ``close`` finishes it.
-- The writer ignores SIGINT and SIGTERM (a Ctrl-C reaches the whole process group): the
-  recorder's own handlers close the bag through it.
+- A signal (Ctrl-C, SIGTERM) or an exception leaves a bag with every completed step: the
+  recorder's handlers close the bag through the writer, which ignores SIGINT, SIGTERM and SIGHUP
+  (a Ctrl-C reaches the whole process group) and finishes when told.
+- A hard kill of the recording process loses at most the current episode: the writer reads every
+  request sent before the pipe's end (each episode's end sends a flush), then stops without
+  finishing the bag, as the recording process would have. :meth:`ProcessBagSink.flush` is not
+  waited on, so a kill of *both* processes at once (a process group's SIGKILL) can lose, besides,
+  what the writer had not yet written: at most :data:`~.process_writer.SLOTS` batches.
 - An error in the writer (a full disk) is raised in the recording process, as the same exception,
-  at the next write (or flush, or close) after it happened; a writer that died is reported
+  at the next batch, flush or close after it happened; a writer that died is reported
   (:class:`WriterDiedError`), never waited on forever.
 """
 
@@ -24,7 +28,6 @@ from __future__ import annotations
 import mmap
 import multiprocessing
 import multiprocessing.connection
-import signal
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -32,7 +35,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from bubblerob_env.ros.bags.sinks import DEFAULT_DISTRO, FORMATS, BagSink, bag_path, open_bag
+from bubblerob_env.ros.bags.process_writer import SLOT_BYTES, SLOTS, serve
+from bubblerob_env.ros.bags.sinks import DEFAULT_DISTRO, FORMATS, bag_path
+from bubblerob_env.ros.fastpath.batch import Gathered
 from bubblerob_env.ros.fastpath.framing import (
     FrameLayout,
     Framing,
@@ -40,117 +45,16 @@ from bubblerob_env.ros.fastpath.framing import (
     PackedWriter,
     Record,
 )
+from bubblerob_env.ros.messages.topics import Topics
+from bubblerob_env.specs import EnvSpecs
 
 __all__ = ["ProcessBagSink", "WriterDiedError", "open_bag_in_process"]
 
-_ANSWERED = ("add_topic", "framing", "close")
-"""Requests the recorder waits on; errors of the others come back as ``"async"``, at once."""
 _POLL_S = 0.5  # how often a wait looks whether the writer is still alive
-_SLOTS = 4
-"""Batches of packed frames the writer may be behind; each goes through shared memory."""
-_SLOT_BYTES = 2**20 + 2**16
-"""A slot's size: a fan-out batch is about a MiB at most (bigger ones go through the pipe)."""
 
 
 class WriterDiedError(OSError):
     """The process writing a bag is gone (killed, or out of memory)."""
-
-
-def _serve(
-    conn: multiprocessing.connection.Connection,
-    ours: multiprocessing.connection.Connection,
-    args: tuple[Any, ...],
-    shared: mmap.mmap,
-) -> None:
-    """The writer process: open the bag, then carry out each request until close or the end."""
-    ours.close()  # the recorder's end: else its death would never end our reads
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the recorder closes the bag through us
-    signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    try:
-        sink = open_bag(*args)
-    except BaseException as error:  # noqa: BLE001 - every error goes back to the recorder
-        conn.send(("error", error))
-        return
-    conn.send(("ok", None))
-    state = _Writer(sink, conn, shared)
-    while True:
-        try:
-            requests = conn.recv()  # a list, in order
-        except (EOFError, OSError):  # the recorder died: leave the bag as it was (unfinished)
-            return  # multiprocessing ends the process without atexit hooks or destructors
-        for request in requests:
-            if state.carry_out(request):
-                return
-
-
-class _Writer:
-    """The writer process's side: the bag and what it needs to read batches."""
-
-    def __init__(
-        self, sink: BagSink, conn: multiprocessing.connection.Connection, shared: mmap.mmap
-    ) -> None:
-        self.sink = sink
-        self.conn = conn
-        self.layouts: list[FrameLayout] = []
-        self.done = np.frombuffer(shared, dtype=np.int64, count=1)  # batches written
-        self.slots = memoryview(shared)[8:]
-        self.failed = False  # after an error, writes are left out: the first error is reported
-
-    def carry_out(self, request: tuple[Any, ...]) -> bool:
-        """Do ``request``, answering it if the recorder waits; whether it was the close."""
-        kind: str = request[0]
-        try:
-            if kind == "many":
-                self.write_many(*request[1:])
-                return False
-            if kind == "layout":
-                self.layouts.append(request[1])
-                return False
-            reply = None
-            if not self.failed or kind in ("close", "flush"):
-                reply = _carry_out(self.sink, request)
-        except BaseException as error:  # noqa: BLE001 - raised in the recorder
-            self.failed = True
-            self.conn.send(("error" if kind in _ANSWERED else "async", error))
-            return kind == "close"
-        if kind in _ANSWERED:
-            self.conn.send(("ok", reply))
-        return kind == "close"
-
-    def write_many(self, layout_index: int, slot: int, size: int, stamp_bytes: bytes) -> None:
-        """A batch of packed frames, from its slot of shared memory (or the pipe, ``slot < 0``)."""
-        data: Any
-        if slot < 0:
-            data = self.conn.recv_bytes()
-        else:
-            data = self.slots[slot * _SLOT_BYTES : slot * _SLOT_BYTES + size]
-        stamps = np.frombuffer(stamp_bytes, dtype=np.int64).reshape(2, -1)
-        try:
-            if not self.failed:
-                self.sink.packed_batch_writer()(data, self.layouts[layout_index], *stamps)
-        finally:
-            if slot >= 0:
-                self.done[0] += 1  # the slot is free again
-
-
-def _carry_out(sink: BagSink, request: tuple[Any, ...]) -> Any:
-    kind = request[0]
-    if kind == "one":
-        _, data, layout, stamp, action_stamp = request
-        sink.packed_writer()(data, layout, stamp, action_stamp)
-    elif kind == "records":
-        sink.write_batch(request[1])
-    elif kind == "add_topic":
-        sink.add_topic(*request[1:])
-    elif kind == "framing":
-        return sink.framing()
-    elif kind == "metadata":
-        sink.set_metadata(*request[1:])
-    elif kind == "flush":
-        sink.flush()
-    elif kind == "close":
-        sink.close()
-    return None
 
 
 class ProcessBagSink:
@@ -167,16 +71,17 @@ class ProcessBagSink:
         self._framing: Framing | None = None
         self._topics: list[str] = []
         self._layouts: dict[FrameLayout, int] = {}
-        self._shared = mmap.mmap(-1, 8 + _SLOTS * _SLOT_BYTES)  # shared with the forked writer
+        self._shared = mmap.mmap(-1, 8 + SLOTS * SLOT_BYTES)  # shared with the forked writer
         self._done = np.frombuffer(self._shared, dtype=np.int64, count=1)
         self._slots = np.frombuffer(self._shared, dtype=np.uint8, offset=8)
         self._sent = 0  # batches sent
         self._queue: list[tuple[Any, ...]] = []  # requests not sent yet
         self._dead: WriterDiedError | None = None  # the writer died: every call says so
+        self._packing = False  # whether the writer has its packer
         context = multiprocessing.get_context("fork")
         self._conn, child = context.Pipe()
         self._process = context.Process(
-            target=_serve, args=(child, self._conn, args, self._shared), daemon=False
+            target=serve, args=(child, self._conn, args, self._shared), daemon=False
         )
         self._process.start()
         child.close()  # ours goes: the writer sees the pipe's end if we die
@@ -280,7 +185,7 @@ class ProcessBagSink:
             self._send(("layout", layout))
         size = len(stamps) * layout.size
         both = np.concatenate((stamps, action_stamps)).astype(np.int64, copy=False).tobytes()
-        if size > _SLOT_BYTES:  # a batch of huge frames: through the pipe
+        if size > SLOT_BYTES:  # a batch of huge frames: through the pipe
             self._send(("many", index, -1, size, both), now=True)
             try:
                 self._conn.send_bytes(memoryview(data).cast("B")[:size])
@@ -288,15 +193,34 @@ class ProcessBagSink:
                 raise self._died() from None
         else:
             self._wait_for_slot()
-            slot = self._sent % _SLOTS
-            start = slot * _SLOT_BYTES
+            slot = self._sent % SLOTS
+            start = slot * SLOT_BYTES
             self._slots[start : start + size] = np.frombuffer(data, dtype=np.uint8, count=size)
             self._send(("many", index, slot, size, both), now=True)
         self._sent += 1
 
+    def write_gathered(self, gathered: Gathered, specs: EnvSpecs, topics: Topics) -> None:
+        """Send frames as gathered: the writer converts and packs them (as the fan-out would)."""
+        if not self._packing:
+            self._send(("packer", specs, topics))
+            self._packing = True
+        arrays: tuple[NDArray[Any], ...] = (gathered.rows, gathered.lasers, gathered.images)
+        sizes = [array.nbytes for array in arrays]
+        if sum(sizes) > SLOT_BYTES:  # pragma: no cover - bigger than any fan-out batch
+            raise ValueError(f"a batch of {sum(sizes)} bytes does not fit a writer's slot")
+        self._wait_for_slot()
+        slot = self._sent % SLOTS
+        start = slot * SLOT_BYTES
+        for array, size in zip(arrays, sizes, strict=True):
+            self._slots[start : start + size] = array.reshape(-1).view(np.uint8)
+            start += size
+        shapes = [array.shape for array in arrays]
+        self._send(("gathered", slot, shapes, gathered.scalars), now=True)
+        self._sent += 1
+
     def _wait_for_slot(self) -> None:
-        """Wait until the writer is fewer than ``_SLOTS`` batches behind."""
-        while self._sent - int(self._done[0]) >= _SLOTS:
+        """Wait until the writer is fewer than ``SLOTS`` batches behind."""
+        while self._sent - int(self._done[0]) >= SLOTS:
             if self._conn.poll(0.0005):  # an error of a batch: raised at once
                 raise self._conn.recv()[1]
             if not self._process.is_alive():

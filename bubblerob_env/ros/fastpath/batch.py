@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any, SupportsFloat
+from typing import TYPE_CHECKING, Any, NamedTuple, SupportsFloat
 
 import numpy as np
 from numpy.typing import NDArray
@@ -36,7 +36,20 @@ from bubblerob_env.ros.messages.values import (
 if TYPE_CHECKING:
     from bubblerob_env.specs import EnvSpecs
 
-__all__ = ["FrameBatch"]
+__all__ = ["FrameBatch", "Gathered"]
+
+
+class Gathered(NamedTuple):
+    """A batch's frames as gathered: raw numbers, before :meth:`FrameBatch.convert`."""
+
+    rows: NDArray[np.float64]
+    """One row per frame of the small arrays, in ``ROW`` order."""
+    lasers: NDArray[np.float32]
+    """One scan per frame (no rows without a laser)."""
+    images: NDArray[np.uint8]
+    """One image's bytes per frame (no rows without a camera)."""
+    scalars: list[tuple[Any, ...]]
+    """Stamp, seq, action stamp, reward, terminated, truncated, triggered, sim time per frame."""
 
 
 class FrameBatch:
@@ -119,13 +132,28 @@ class FrameBatch:
         serialised element type (``<f4``, ``u1``, ``<f8``), one row per frame. Some are views of
         the batch's buffer: use them before the next :meth:`add`.
         """
-        rows = self._rows[: self._count]
-        lasers = self._lasers[: self._count]
-        stamp, seq, action_stamp, reward, terminated, truncated, triggered, sim_time = zip(
-            *self._scalars, strict=True
+        return self.convert(self.take())
+
+    def take(self) -> Gathered:
+        """The frames gathered so far, as they are; empties.
+
+        The arrays are views of the buffers, valid until the next :meth:`add`. :meth:`convert` of
+        them is :meth:`columns` (another process's ``FrameBatch`` of the same specs may convert
+        them).
+        """
+        count = self._count
+        gathered = Gathered(
+            self._rows[:count], self._lasers[:count], self._images[:count], self._scalars
         )
-        images = self._images[: self._count]
         self._count, self._scalars = 0, []
+        return gathered
+
+    def convert(self, gathered: Gathered) -> dict[str, NDArray[Any]]:
+        """:meth:`columns` of frames :meth:`take` gave."""
+        rows, lasers, images, scalars = gathered
+        stamp, seq, action_stamp, reward, terminated, truncated, triggered, sim_time = zip(
+            *scalars, strict=True
+        )
         stamps = np.array(stamp, dtype=np.int64)
         action_stamps = np.array(action_stamp, dtype=np.int64)
         specs = self.specs
