@@ -12,6 +12,7 @@ import signal
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -122,3 +123,16 @@ def test_a_full_disk_gives_the_inline_writers_error(tmp_path):
         said[writer] = run.stdout.splitlines()
     assert said["inline"] and "File too large" in said["inline"][0]
     assert said["process"] == said["inline"]
+
+
+def test_the_benchmark_measures_the_writer_process():
+    root = Path(__file__).resolve().parents[2]
+    run = subprocess.run(
+        [sys.executable, str(root / "bench" / "record_speed.py"), "--quick", "--no-detections"]
+        + ["--writer", "process"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert run.returncode == 0, run.stderr
+    assert "recording over the plain env (MCAP zstd, camera off): " in run.stdout
