@@ -52,8 +52,8 @@ print(type(policy).__name__, outcomes, sorted(m for m in loaded if m.split(".")[
 
 def test_nav_drives_to_the_goal_without_torch():
     # The first ten held-out (validation) seeds: the network alone, run by onnxruntime. It
-    # reaches about 70% of goals (docs/LEARNING.md), so at least half of these; an arrival is
-    # the robot's centre within the goal radius, recomputed here from its pose.
+    # reaches about 90% of goals (docs/LEARNING.md), so at least 7 of these; an arrival is the
+    # robot's centre within the goal radius, recomputed here from its pose.
     seeds = list(range(VALIDATION.start, VALIDATION.start + 10))
     code = _TORCH_FREE.replace("SEEDS", repr(seeds))
     result = subprocess.run(
@@ -67,7 +67,7 @@ def test_nav_drives_to_the_goal_without_torch():
     assert torch_modules.strip() == "[]"
     episodes = json.loads(outcomes.replace("True", "true").replace("False", "false"))
     assert all(success == reached for success, reached, _ in episodes), episodes
-    assert sum(success for success, _, _ in episodes) >= 5, episodes
+    assert sum(success for success, _, _ in episodes) >= 7, episodes
 
 
 def test_nav_is_the_export_of_the_shipped_model():
@@ -102,8 +102,9 @@ def test_nav_zip_and_onnx_give_the_same_actions():
 def test_nav_run_folder_records_its_recipe():
     config = (RUN / "config.yml").read_text()
     assert "BubbleRobNav-v0" in config and "train.imitation.ImitationWarmStart" in config
+    assert "teacher: navigator_observed" in config
     timing = json.loads((RUN / "train_time.json").read_text())
-    assert timing["wall_time_s"] > 0 and timing["timesteps"] >= 200_000  # ppo.yml's n_timesteps
+    assert timing["wall_time_s"] > 0 and timing["timesteps"] >= 4096  # ppo.yml's n_timesteps
     assert len(timing["uptime_load_at_start"]) == 3  # the machine's load, for the wall time
     command = (RUN / "command.txt").read_text().split()
     assert command[:3] == ["python", "-m", "train"] and "BubbleRobNav-v0" in command
