@@ -105,7 +105,7 @@ class NavigatorPolicy(OneByOnePolicy):
     then a function of the observation alone (its only state: whether the episode has taken a
     step), the teacher a network can imitate: the carried memory follows the navigator's own
     past choices, which on states a network drives into are not the network's (docs/LEARNING.md,
-    the eighth round).
+    the ninth round).
     """
 
     name = "navigator"
