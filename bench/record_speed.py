@@ -1,7 +1,7 @@
 """Env steps/s without recording and while recording each bag format, camera off and 64x64.
 
 Usage: ``python bench/record_speed.py [--steps N] [--block B] [--out DIR] [--no-detections]
-[--writer inline|process]``
+[--writer inline|process]`` (default: the recorder's, ``process`` on two or more cores)
 
 Each recording configuration is measured as a group: a plain ``BubbleRob-v0`` and the same env
 wrapped in a ``RosBagRecorder`` (with the camera: one recording without ``/detections`` and one
@@ -36,6 +36,7 @@ import numpy as np
 
 import bubblerob_env  # noqa: F401  (registers BubbleRob-v0)
 from bubblerob_env.ros import RosBagRecorder
+from bubblerob_env.ros.bags.process import can_write_apart
 from bubblerob_env.ros.messages.topics import Topics
 from bubblerob_env.ros.recorder import WRITERS
 
@@ -68,7 +69,7 @@ def measure_group(
     steps: int,
     block: int,
     out: Path,
-    writer: str = "inline",
+    writer: str | None = None,
 ) -> tuple[dict[str, list[float]], dict[str, float]]:
     """Block times of a plain env and its recordings, taking turns; seconds to finish each bag.
 
@@ -123,8 +124,9 @@ def main() -> None:
     parser.add_argument(
         "--writer",
         choices=WRITERS,
-        default="inline",
-        help="who writes the bags: this process or a process of their own (default inline)",
+        default=None,
+        help="who writes the bags: this process or a process of their own (default: the "
+        "recorder's, process with two or more cores)",
     )
     parser.add_argument(
         "--no-detections", action="store_true", help="camera rows without /detections only"
@@ -147,6 +149,8 @@ def main() -> None:
             print(f"{text}: {value:+.1%} (target <= +{TARGET:.0%}: {verdict})")
         before, after = " ".join(f"{x:.2f}" for x in load), os.getloadavg()[0]
         print(f"load average: {before} (1/5/15 min) before, {after:.2f} after")
+        writer = args.writer or ("process" if can_write_apart() else "inline")
+        print(f"writer: {writer}" + ("" if args.writer else " (the recorder's default)"))
     finally:
         if args.out is None:
             shutil.rmtree(out, ignore_errors=True)

@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from bubblerob_env.mapping import DEFAULT_RESOLUTION
 from bubblerob_env.ros.bags import safety
-from bubblerob_env.ros.bags.process import ProcessBagSink, open_bag_in_process
+from bubblerob_env.ros.bags.process import ProcessBagSink, can_write_apart, open_bag_in_process
 from bubblerob_env.ros.bags.sinks import (
     DEFAULT_DISTRO,
     FORMATS,
@@ -54,7 +54,8 @@ JSON list with each episode's number, seed and start time. The env id, kwargs, p
 are under ``bubblerob.recording``; every episode's full metadata is on the episode topic."""
 RECORDING_KEY = "bubblerob.recording"
 WRITERS = ("inline", "process")
-"""Who writes a bag: the recording process, or a process of its own."""
+"""Who writes a bag: the recording process, or a process of its own (the default where
+:func:`~bubblerob_env.ros.bags.process.can_write_apart`)."""
 _SUMMARY_KEYS = ("episode", "seed", "start_time_ns")
 _SHARED_KEYS = ("episode", "seed", "rng_state", "options", "start_time_ns", "first_seq")
 
@@ -86,7 +87,7 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
         per_episode: bool = False,
         start_time: float | str | None = None,
         map_resolution: float = DEFAULT_RESOLUTION,
-        writer: str = "inline",
+        writer: str | None = None,
     ) -> None:
         """Wrap ``env`` and create the bag.
 
@@ -107,11 +108,14 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
                 time runs from it; with ``per_episode`` every bag starts at it.
             map_resolution: Metres per cell of each episode's ``/map`` (the ground-truth
                 occupancy grid, written once per episode at its start stamp), 0.005 to 1.
-            writer: ``"inline"`` (default): this process writes the bag; ``"process"``: a
-                process of its own appends, compresses and writes the packed frames
-                (:mod:`~bubblerob_env.ros.bags.process`), off the stepping loop on a machine
-                with two or more cores; the same bytes. A daemonic process (an ``AsyncVectorEnv``
-                worker) writes inline: it may not start processes.
+            writer: ``"process"``: a process of its own converts, packs, compresses and writes
+                the frames (:mod:`~bubblerob_env.ros.bags.process`), off the stepping loop;
+                ``"inline"``: this process writes the bag. The same bytes either way. Default:
+                ``"process"`` where it helps and is safe (two or more usable cores, no other
+                thread, not a daemonic process: see
+                :func:`~bubblerob_env.ros.bags.process.can_write_apart`), else ``"inline"``. A
+                daemonic process (an ``AsyncVectorEnv`` worker) always writes inline: it may not
+                start processes.
         """
         super().__init__(env)
         if not isinstance(env.observation_space, gym.spaces.Dict):  # before the bag is made
@@ -122,6 +126,8 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
             )
         if format not in FORMATS:
             raise ValueError(f"unknown bag format {format!r}; choose one of {list(FORMATS)}")
+        if writer is None:
+            writer = "process" if can_write_apart() else "inline"
         if writer not in WRITERS:
             raise ValueError(f"unknown bag writer {writer!r}; choose one of {list(WRITERS)}")
         self.writer = writer
@@ -143,8 +149,8 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
         self._fanout.serializer(self.distro)  # compile now: errors before the first step
         self._episodes: list[dict[str, Any]] = []
         self._episode_count = 0
-        self.completed_episodes = 0
-        """Episodes recorded to their end (terminated or truncated), in every bag so far."""
+        self._ended_in_bag = 0  # episodes ended (and flushed) in the open bag
+        self._saved_before = 0  # episodes on disk in the bags closed before it
         self.start_time_ns = start_time_ns(start_time)
         self._stream = EpisodeStream(self._fanout, self._dt_ns, self.start_time_ns, map_resolution)
         facts = {"distro": self.distro, "format": self.format, "topics": self.topics.to_dict()}
@@ -155,6 +161,21 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
         self._bag_paths: list[Path] = []
         self._open_bag(0)
         self._token = safety.register(self._finish)
+
+    @property
+    def completed_episodes(self) -> int:
+        """Episodes recorded to their end (terminated or truncated) and on disk, in every bag.
+
+        With ``writer="process"``, the episodes the writer has flushed (it may be a batch or two
+        behind while recording); exact once the recorder is closed, even after an error (a full
+        disk): what reads back.
+        """
+        return self._saved_before + self._saved_in(self._sink)
+
+    def _saved_in(self, sink: BagSink | ProcessBagSink | None) -> int:
+        if isinstance(sink, ProcessBagSink):  # one flush per episode's end
+            return sink.flushed
+        return self._ended_in_bag
 
     # -- bags -----------------------------------------------------------------------------------
 
@@ -178,6 +199,7 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
         self._bag_paths.append(sink.path)
         self._fanout.add_sink(sink)
         self._sink = sink
+        self._ended_in_bag = 0
         self._episodes = []
         self._stream.restart()  # each bag starts at the start time
 
@@ -187,17 +209,24 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
             return
         with safety.critical:
             try:
-                self._fanout.remove_sink(sink)  # writes the frames still batched
-            finally:  # whatever happened, finish the file: it holds every frame written
-                if self._episodes:  # kept small: ruamel.yaml dumps long strings slowly
-                    summary = [{k: e[k] for k in _SUMMARY_KEYS} for e in self._episodes]
-                    shared = {k: v for k, v in self._episodes[-1].items() if k not in _SHARED_KEYS}
-                    sink.set_metadata(EPISODES_KEY, json.dumps(summary, sort_keys=True))
-                    sink.set_metadata(RECORDING_KEY, json.dumps(shared, sort_keys=True))
-                sink.close()
-                if not self._episodes:  # closed before any reset: leave no empty bag behind
-                    remove_bag(sink.path)
-                    self._bag_paths.remove(sink.path)
+                self._finish_bag(sink)
+            finally:  # what is on disk, even after an error
+                self._saved_before += self._saved_in(sink)
+                self._ended_in_bag = 0
+
+    def _finish_bag(self, sink: BagSink | ProcessBagSink) -> None:
+        try:
+            self._fanout.remove_sink(sink)  # writes the frames still batched
+        finally:  # whatever happened, finish the file: it holds every frame written
+            if self._episodes:  # kept small: ruamel.yaml dumps long strings slowly
+                summary = [{k: e[k] for k in _SUMMARY_KEYS} for e in self._episodes]
+                shared = {k: v for k, v in self._episodes[-1].items() if k not in _SHARED_KEYS}
+                sink.set_metadata(EPISODES_KEY, json.dumps(summary, sort_keys=True))
+                sink.set_metadata(RECORDING_KEY, json.dumps(shared, sort_keys=True))
+            sink.close()
+            if not self._episodes:  # closed before any reset: leave no empty bag behind
+                remove_bag(sink.path)
+                self._bag_paths.remove(sink.path)
 
     def _finish(self) -> None:
         """Close the bag (atexit and signal paths); the env is left alone."""
@@ -237,7 +266,7 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
             if (terminated or truncated) and self._sink is not None:
                 self._fanout.flush()  # batched frames, then the sink's chunk: on disk
                 self._sink.flush()
-                self.completed_episodes += 1
+                self._ended_in_bag += 1
         return obs, float(reward), terminated, truncated, info
 
     def close(self) -> None:

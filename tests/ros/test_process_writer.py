@@ -19,8 +19,10 @@ import numpy as np
 import pytest
 
 from bubblerob_env.ros import RosBagRecorder
+from bubblerob_env.ros.bags.lock import BagLockedError
 from bubblerob_env.ros.bags.process import WriterDiedError
 from bubblerob_env.ros.messages.topics import Topics
+from bubblerob_env.ros.readback.summary import read_summary
 
 
 def _record(path, fmt, compression, writer, camera=False, steps=300):
@@ -90,7 +92,9 @@ FULL_DISK = textwrap.dedent(
 
     signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # writes fail with EFBIG, as on a full disk
     resource.setrlimit(resource.RLIMIT_FSIZE, (150_000, 150_000))
-    env = RosBagRecorder(gym.make("BubbleRob-v0"), "bag", writer=sys.argv[1])
+    env = RosBagRecorder(
+        gym.make("BubbleRob-v0", max_episode_steps=30), "bag", writer=sys.argv[1]
+    )
     env.reset(seed=0)
     try:
         for _ in range(3000):
@@ -104,6 +108,7 @@ FULL_DISK = textwrap.dedent(
         env.close()
     except OSError as error:
         print("close:", type(error).__name__, error)
+    print("saved", env.completed_episodes)
     """
 )
 
@@ -123,6 +128,63 @@ def test_a_full_disk_gives_the_inline_writers_error(tmp_path):
         said[writer] = run.stdout.splitlines()
     assert said["inline"] and "File too large" in said["inline"][0]
     assert said["process"] == said["inline"]
+    # What the recorder says it saved is what reads back (the writer's flushes, not the hand-overs)
+    saved = int(said["process"][-1].split()[1])
+    for writer in ("inline", "process"):
+        assert saved >= 2 and len(read_summary(tmp_path / writer / "bag").episodes) == saved
+
+
+def test_the_recording_process_holds_the_bags_lock(tmp_path):
+    env = RosBagRecorder(gym.make("BubbleRob-v0"), tmp_path / "bag", writer="process")
+    try:
+        assert (tmp_path / "bag.lock").read_text() == str(os.getpid())  # not the writer's pid
+        with pytest.raises(BagLockedError, match=f"being written by process {os.getpid()};"):
+            RosBagRecorder(gym.make("BubbleRob-v0"), tmp_path / "bag", overwrite=True)
+    finally:
+        env.close()
+    assert not (tmp_path / "bag.lock").exists()
+
+
+DEFAULT_WRITER = textwrap.dedent(
+    """
+    import os, threading
+    import gymnasium as gym
+    import bubblerob_env
+    from bubblerob_env.ros import RosBagRecorder
+
+    def writer(name):
+        env = RosBagRecorder(gym.make("BubbleRob-v0"), name)
+        env.close()
+        return env.writer
+
+    said = [writer("cores")]
+    stop = threading.Event()
+    thread = threading.Thread(target=stop.wait)
+    thread.start()  # a fork copies only the forking thread
+    said.append(writer("thread"))
+    stop.set()
+    thread.join()
+    os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})  # one core: nothing to gain
+    said.append(writer("one_core"))
+    print(*said)
+    """
+)
+
+
+@pytest.mark.skipif(
+    not hasattr(os, "sched_getaffinity") or len(os.sched_getaffinity(0)) < 2,
+    reason="needs two usable cores",
+)
+def test_the_default_writer_is_a_process_where_it_helps_and_is_safe(tmp_path):
+    run = subprocess.run(
+        [sys.executable, "-c", DEFAULT_WRITER],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.split() == ["process", "inline", "inline"]
 
 
 def test_the_benchmark_measures_the_writer_process():

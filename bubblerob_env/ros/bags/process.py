@@ -20,7 +20,16 @@ What holds as with a bag written in the recording process:
   what the writer had not yet written: at most :data:`~.process_writer.SLOTS` batches.
 - An error in the writer (a full disk) is raised in the recording process, as the same exception,
   at the next batch, flush or close after it happened; a writer that died is reported
-  (:class:`WriterDiedError`), never waited on forever.
+  (:class:`WriterDiedError`), never waited on forever. :attr:`ProcessBagSink.flushed` counts the
+  flushes the writer did before any error (each ended an episode, which is then on disk): once
+  the bag is closed, the episodes that read back.
+- The bag's lock (:mod:`~bubblerob_env.ros.bags.lock`) is the recording process's, taken before
+  the writer starts: a second writer of the bag is told this process's id, as inline.
+
+:func:`can_write_apart` says where a writer process helps and is safe: fork available, two or
+more usable cores (on one, the writer only adds the hand-over), no other thread running (a fork
+copies only the forking thread: locks other threads hold stay held in the child), and not in a
+daemonic process (an ``AsyncVectorEnv`` worker may not start processes).
 """
 
 from __future__ import annotations
@@ -28,6 +37,8 @@ from __future__ import annotations
 import mmap
 import multiprocessing
 import multiprocessing.connection
+import os
+import threading
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -35,8 +46,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from bubblerob_env.ros.bags.process_writer import SLOT_BYTES, SLOTS, serve
-from bubblerob_env.ros.bags.sinks import DEFAULT_DISTRO, FORMATS, bag_path
+from bubblerob_env.ros.bags.lock import BagLock
+from bubblerob_env.ros.bags.process_writer import HEADER_BYTES, SLOT_BYTES, SLOTS, serve
+from bubblerob_env.ros.bags.sinks import bag_path, check_bag_args, lock_bag
 from bubblerob_env.ros.fastpath.batch import Gathered
 from bubblerob_env.ros.fastpath.framing import (
     FrameLayout,
@@ -48,7 +60,7 @@ from bubblerob_env.ros.fastpath.framing import (
 from bubblerob_env.ros.messages.topics import Topics
 from bubblerob_env.specs import EnvSpecs
 
-__all__ = ["ProcessBagSink", "WriterDiedError", "open_bag_in_process"]
+__all__ = ["ProcessBagSink", "WriterDiedError", "can_write_apart", "open_bag_in_process"]
 
 _POLL_S = 0.5  # how often a wait looks whether the writer is still alive
 
@@ -63,7 +75,9 @@ class ProcessBagSink:
     Made by :func:`open_bag_in_process`; used like the sink :func:`~.sinks.open_bag` returns.
     """
 
-    def __init__(self, path: Path, fmt: str, distro: str, args: tuple[Any, ...]) -> None:
+    def __init__(
+        self, path: Path, fmt: str, distro: str, args: tuple[Any, ...], lock: BagLock
+    ) -> None:
         self.path = path
         self.format = fmt
         self.distro = distro
@@ -71,9 +85,12 @@ class ProcessBagSink:
         self._framing: Framing | None = None
         self._topics: list[str] = []
         self._layouts: dict[FrameLayout, int] = {}
-        self._shared = mmap.mmap(-1, 8 + SLOTS * SLOT_BYTES)  # shared with the forked writer
+        self._lock = lock  # given back once the writer has ended
+        self._shared = mmap.mmap(-1, HEADER_BYTES + SLOTS * SLOT_BYTES)  # shared with the writer
         self._done = np.frombuffer(self._shared, dtype=np.int64, count=1)
-        self._slots = np.frombuffer(self._shared, dtype=np.uint8, offset=8)
+        self._flushed = np.frombuffer(self._shared, dtype=np.int64, count=1, offset=8)
+        self._flushed_at_close = 0
+        self._slots = np.frombuffer(self._shared, dtype=np.uint8, offset=HEADER_BYTES)
         self._sent = 0  # batches sent
         self._queue: list[tuple[Any, ...]] = []  # requests not sent yet
         self._dead: WriterDiedError | None = None  # the writer died: every call says so
@@ -99,6 +116,9 @@ class ProcessBagSink:
         if self._dead is None:
             self.closed = True
             self._process.join(timeout=5)
+            self._flushed_at_close = int(self._flushed[0])  # it does no more
+            if not self._process.is_alive():  # its copy of the lock is gone: ours goes too
+                self._lock.release()
             code = self._process.exitcode
             how = f"was killed by signal {-code}" if code and code < 0 else f"exited ({code})"
             text = f"the process writing bag {self.path} {how}: the bag is unfinished"
@@ -258,8 +278,15 @@ class ProcessBagSink:
                 self._process.kill()
                 self._process.join()
             self._conn.close()
-            del self._done, self._slots
+            self._flushed_at_close = int(self._flushed[0])
+            del self._done, self._flushed, self._slots
             self._shared.close()
+            self._lock.release()
+
+    @property
+    def flushed(self) -> int:
+        """Flushes the writer has done before any error: exact once :meth:`close` returned."""
+        return self._flushed_at_close if self.closed else int(self._flushed[0])
 
     @property
     def topics(self) -> tuple[str, ...]:
@@ -281,7 +308,26 @@ def open_bag_in_process(
     """
     if "fork" not in multiprocessing.get_all_start_methods():
         raise ValueError("a bag writer process needs the 'fork' start method (Linux, macOS)")
-    args = (path, fmt, distro, compression, overwrite, chunk_size)
-    if fmt not in FORMATS:
-        raise ValueError(f"unknown bag format {fmt!r}; choose one of {list(FORMATS)}")
-    return ProcessBagSink(bag_path(path, fmt), fmt, distro or DEFAULT_DISTRO[fmt], args)
+    distro, _ = check_bag_args(fmt, distro, compression)
+    target = bag_path(path, fmt)
+    lock = lock_bag(target)  # ours, before the fork: the writer inherits it, never takes it
+    args = (path, fmt, distro, compression, overwrite, chunk_size, True)
+    try:
+        return ProcessBagSink(target, fmt, distro, args, lock)
+    except BaseException:
+        lock.release()
+        raise
+
+
+def can_write_apart() -> bool:
+    """Whether a writer process helps and is safe here (see the module's docstring)."""
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - macOS has no affinity
+        cores = os.cpu_count() or 1
+    return (
+        "fork" in multiprocessing.get_all_start_methods()
+        and cores >= 2
+        and threading.active_count() == 1
+        and not multiprocessing.current_process().daemon
+    )

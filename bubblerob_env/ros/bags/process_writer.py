@@ -22,7 +22,7 @@ from bubblerob_env.ros.fastpath.serializer import FramePacker, FrameSerializer
 from bubblerob_env.ros.messages.topics import Topics
 from bubblerob_env.specs import EnvSpecs
 
-__all__ = ["ANSWERED", "GATHERED_DTYPES", "SLOTS", "SLOT_BYTES", "Writer", "serve"]
+__all__ = ["ANSWERED", "GATHERED_DTYPES", "HEADER_BYTES", "SLOTS", "SLOT_BYTES", "Writer", "serve"]
 
 ANSWERED = ("add_topic", "framing", "close")
 """Requests the recorder waits on; errors of the others come back as ``"async"``, at once."""
@@ -30,6 +30,9 @@ SLOTS = 4
 """Batches of packed frames the writer may be behind; each goes through shared memory."""
 SLOT_BYTES = 2**21
 """A slot's size: a fan-out batch is about a MiB at most (bigger ones go through the pipe)."""
+HEADER_BYTES = 16
+"""Before the slots: two int64 counters the writer keeps, batches written and flushes done (a
+flush done before any error: the episodes ended before it are on disk, as the recorder reports)."""
 
 
 GATHERED_DTYPES: tuple[np.dtype[Any], ...] = (
@@ -78,7 +81,8 @@ class Writer:
         self.conn = conn
         self.layouts: list[FrameLayout] = []
         self.done = np.frombuffer(shared, dtype=np.int64, count=1)  # batches written
-        self.slots = memoryview(shared)[8:]
+        self.flushed = np.frombuffer(shared, dtype=np.int64, count=1, offset=8)  # flushes done
+        self.slots = memoryview(shared)[HEADER_BYTES:]
         self.failed = False  # after an error, writes are left out: the first error is reported
         self.packer: FramePacker | None = None
         self.converter: FrameBatch | None = None
@@ -131,6 +135,8 @@ class Writer:
             reply = None
             if not self.failed or kind in ("close", "flush"):
                 reply = _carry_out(self.sink, request)
+            if kind == "flush" and not self.failed:  # everything before it is on disk
+                self.flushed[0] += 1
         except BaseException as error:  # noqa: BLE001 - raised in the recorder
             self.failed = True
             self.conn.send(("error" if kind in ANSWERED else "async", error))

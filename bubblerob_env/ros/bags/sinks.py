@@ -52,6 +52,8 @@ __all__ = [
     "BagPathError",
     "BagSink",
     "bag_path",
+    "check_bag_args",
+    "lock_bag",
     "open_bag",
     "remove_bag",
 ]
@@ -312,6 +314,7 @@ def open_bag(
     compression: str | None = None,
     overwrite: bool = False,
     chunk_size: int | None = None,
+    lock_held: bool = False,
 ) -> BagSink:
     """Create a bag and open it for writing.
 
@@ -324,10 +327,44 @@ def open_bag(
         overwrite: Replace an existing bag instead of raising ``FileExistsError``.
         chunk_size: MCAP and ROS 1: a chunk closes once it holds more than this many bytes
             (default: ``rosbags``' sizes, 1 MiB for MCAP and 768 KiB for ROS 1).
+        lock_held: The caller holds the bag's lock (:func:`lock_bag`) and gives it back: a
+            writer process, whose recording process locked the bag before starting it.
 
     Raises:
         FileExistsError: The bag exists and ``overwrite`` is false.
         BagPathError: The bag cannot be created there (the message says why).
+        ValueError: An unknown format, or a distro or compression the format does not offer.
+    """
+    distro, compression = check_bag_args(fmt, distro, compression)
+    target = bag_path(path, fmt)
+    lock = None if lock_held else lock_bag(target)
+    try:
+        _prepare(target, overwrite)
+        sink: BagSink
+        if fmt == "ros1":
+            sink = _Ros1Sink(target, distro, compression, chunk_size)
+        else:
+            sink = _Rosbag2Sink(target, fmt, distro, compression, chunk_size)
+    except (OSError, sqlite3.Error, rosbag1.WriterError, rosbag2.WriterError) as error:
+        if lock is not None:
+            lock.release()
+        if target.is_dir() and not any(target.iterdir()):
+            target.rmdir()  # do not leave an empty "bag" behind
+        if isinstance(error, (FileExistsError, BagPathError)):
+            raise  # from _prepare: the message says it all
+        raise BagPathError(f"cannot write bag {target}: {error}") from error
+    except BaseException:
+        if lock is not None:
+            lock.release()
+        raise
+    sink.lock = lock
+    return sink
+
+
+def check_bag_args(fmt: str, distro: str | None, compression: str | None) -> tuple[str, str]:
+    """``(distro, compression)`` of a bag of format ``fmt``, defaults filled in (:func:`open_bag`).
+
+    Raises:
         ValueError: An unknown format, or a distro or compression the format does not offer.
     """
     if fmt not in FORMATS:
@@ -342,30 +379,16 @@ def open_bag(
         raise ValueError(
             f"format {fmt!r} offers compression {list(COMPRESSIONS[fmt])}, got {compression!r}"
         )
-    target = bag_path(path, fmt)
-    lock = _lock(target)
-    try:
-        _prepare(target, overwrite)
-        sink: BagSink
-        if fmt == "ros1":
-            sink = _Ros1Sink(target, distro, compression, chunk_size)
-        else:
-            sink = _Rosbag2Sink(target, fmt, distro, compression, chunk_size)
-    except (OSError, sqlite3.Error, rosbag1.WriterError, rosbag2.WriterError) as error:
-        lock.release()
-        if target.is_dir() and not any(target.iterdir()):
-            target.rmdir()  # do not leave an empty "bag" behind
-        if isinstance(error, (FileExistsError, BagPathError)):
-            raise  # from _prepare: the message says it all
-        raise BagPathError(f"cannot write bag {target}: {error}") from error
-    except BaseException:
-        lock.release()
-        raise
-    sink.lock = lock
-    return sink
+    return distro, compression
 
 
-def _lock(target: Path) -> BagLock:
+def lock_bag(target: Path) -> BagLock:
+    """Take the lock of the bag at ``target`` (creating its directory), as :func:`open_bag` does.
+
+    Raises:
+        BagLockedError: Another process writes the bag.
+        BagPathError: The lock cannot be created there.
+    """
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
         return BagLock(target)
