@@ -111,7 +111,7 @@ class RosBagRecorder(gym.Wrapper[Any, Any, Any, Any]):
             writer: ``"process"``: a process of its own converts, packs, compresses and writes
                 the frames (:mod:`~bubblerob_env.ros.bags.process`), off the stepping loop;
                 ``"inline"``: this process writes the bag. The same bytes either way. Default:
-                ``"process"`` where it helps and is safe (two or more usable cores, no other
+                ``"process"`` where it helps and is safe (Linux, two or more usable cores, no other
                 thread, not a daemonic process: see
                 :func:`~bubblerob_env.ros.bags.process.can_write_apart`), else ``"inline"``. A
                 daemonic process (an ``AsyncVectorEnv`` worker) always writes inline: it may not

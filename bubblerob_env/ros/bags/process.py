@@ -26,10 +26,11 @@ What holds as with a bag written in the recording process:
 - The bag's lock (:mod:`~bubblerob_env.ros.bags.lock`) is the recording process's, taken before
   the writer starts: a second writer of the bag is told this process's id, as inline.
 
-:func:`can_write_apart` says where a writer process helps and is safe: fork available, two or
-more usable cores (on one, the writer only adds the hand-over), no other thread running (a fork
-copies only the forking thread: locks other threads hold stay held in the child), and not in a
-daemonic process (an ``AsyncVectorEnv`` worker may not start processes).
+:func:`can_write_apart` says where a writer process helps and is safe: Linux (on macOS, fork is
+unsafe: CPython starts processes by spawn there), two or more usable cores (on one, the writer only
+adds the hand-over), no other thread running (a fork copies only the forking thread: locks other
+threads hold stay held in the child), and not a daemonic process (an ``AsyncVectorEnv`` worker may
+not start processes).
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ import mmap
 import multiprocessing
 import multiprocessing.connection
 import os
+import sys
 import threading
 from collections.abc import Sequence
 from pathlib import Path
@@ -321,13 +323,10 @@ def open_bag_in_process(
 
 def can_write_apart() -> bool:
     """Whether a writer process helps and is safe here (see the module's docstring)."""
-    try:
-        cores = len(os.sched_getaffinity(0))
-    except AttributeError:  # pragma: no cover - macOS has no affinity
-        cores = os.cpu_count() or 1
+    if not sys.platform.startswith("linux"):  # macOS: its system libraries make fork unsafe
+        return False
     return (
-        "fork" in multiprocessing.get_all_start_methods()
-        and cores >= 2
+        len(os.sched_getaffinity(0)) >= 2
         and threading.active_count() == 1
         and not multiprocessing.current_process().daemon
     )
