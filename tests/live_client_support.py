@@ -54,6 +54,20 @@ class MessageCounter:
                 self.cond.wait(left)
             return self.latest
 
+    def wait_until(self, done, what, timeout=None):
+        """The latest message once ``done(latest)`` holds; exits the client after ``timeout``.
+
+        For a message of another topic published at the same step: topics travel on their own
+        connections, so one topic's message of step k can arrive before another's."""
+        end = time.monotonic() + (self.timeout if timeout is None else timeout)
+        with self.cond:
+            while self.latest is None or not done(self.latest):
+                left = end - time.monotonic()
+                if left <= 0:
+                    raise SystemExit(f"timeout waiting for {what} on {self.topic}")
+                self.cond.wait(left)
+            return self.latest
+
 
 def ns(args, name):
     """``name`` under the client's ``--ns`` (absolute)."""
@@ -218,10 +232,14 @@ def localize(args, io, amcl, truth, odom, cloud, tf, static):
         if time.monotonic() > deadline:
             raise SystemExit("the node did not simulate --sim-seconds within 60 s")
         time.sleep(0.05)
+    last_odom = stamped(odom.latest, odom.latest.pose.pose)
+    # The truth of the last /odom's step may still be on its way (its own connection).
+    truth.wait_until(
+        lambda m: io.stamp_ns(m.header.stamp) >= last_odom[0], "the truth of the last /odom"
+    )
     with amcl.cond, truth.cond:
         tracked = [stamped(m, m.pose.pose) for m in amcl.all]
         truths = [stamped(m, m.pose.pose) for m in truth.all]
-    last_odom = stamped(odom.latest, odom.latest.pose.pose)
     io.send_raw()
     io.send_pose(io.frame, float("nan"), 0.0, 0.0)
     io.send_pose("base_link", 0.0, 0.0, 0.0)

@@ -282,13 +282,18 @@ def cmd_vrep(args):
         marks[phase] = (scan.count, image.count, sim_time.count)
         time.sleep(args.seconds)
         marks[phase + "_end"] = (scan.count, image.count, sim_time.count)
+    # The last scan's /clock tick may still be on its way (its own connection).
+    with scan.cond:
+        scans = list(scan.all)
+    last_scan = scans[-1].header.stamp.to_nsec()
+    clock.wait_until(lambda m: m.clock.to_nsec() >= last_scan, "the last scan's tick")
     return {
         "before": before,
         "after": after,
         "marks": marks,
-        "scan_stamps": [m.header.stamp.to_nsec() for m in scan.all],
-        "scan_rays": len(scan.all[0].ranges),
-        "scan_frame": scan.all[0].header.frame_id,
+        "scan_stamps": [m.header.stamp.to_nsec() for m in scans],
+        "scan_rays": len(scans[0].ranges),
+        "scan_frame": scans[0].header.frame_id,
         "image_stamps": [m.header.stamp.to_nsec() for m in image.all],
         "sim_times": [m.data for m in sim_time.all],
         "clocks": [m.clock.to_nsec() for m in clock.all],

@@ -83,6 +83,14 @@ PROBE = textwrap.dedent(
         marks[phase] = counts()
         spin(0.8)
         marks[phase + "_end"] = counts()
+    # The last scan's /clock tick may still be queued (spin_once takes one message a call).
+    scans = list(got["scan"])
+    deadline = time.monotonic() + 10
+    while not got["clock"] or got["clock"][-1] < scans[-1][0]:
+        if time.monotonic() > deadline:
+            raise SystemExit("the last scan's /clock tick did not come within 10 s")
+        rclpy.spin_once(node, timeout_sec=0.05)
+    got["scan"] = scans
     print(json.dumps({**got, "marks": marks, "before": before, "after": after}))
     """
 )
