@@ -44,7 +44,8 @@ def add_subcommands(subparsers: Any) -> None:
         action="append",
         required=True,
         help="reactive, laser, random, ppo, or a path to an exported .onnx or an SB3 .zip; "
-        "nav, navigator, navigator_observed, pursuit, crowd or crowd_navigator on a Nav env "
+        "nav, navigator, navigator_observed, pursuit, crowd, crowd_navigator or "
+        "crowd_navigator_observed on a Nav env "
         "(--env BubbleRobNav-v0); repeat to compare",
     )
     parser.add_argument("--episodes", type=int, default=100, help="episodes per policy")

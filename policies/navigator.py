@@ -34,7 +34,13 @@ __all__ = [
     "navigation_policy",
 ]
 
-NAVIGATION_POLICIES = ("navigator", "pursuit", "crowd_navigator", "navigator_observed")
+NAVIGATION_POLICIES = (
+    "navigator",
+    "pursuit",
+    "crowd_navigator",
+    "navigator_observed",
+    "crowd_navigator_observed",
+)
 """The built-in controllers of ``BubbleRobNav-v0`` / ``PioneerP3DXNav-v0``."""
 _HEADINGS = 41  # candidate headings, as LaserPolicy's
 _BUBBLEROB_RADIUS, _BUBBLEROB_SPEED = 0.11, 0.4  # what the gains below were tuned for
@@ -59,15 +65,17 @@ def navigation_policy(
         return PursuitPolicy(mapper, base)
     max_heading = math.pi if laser.full_circle else laser.fov / 2 - math.radians(10)
     law = _scaled_gap_law(base.robot.radius, mapper, max_heading)
-    if name == "navigator_observed":
+    observed = name.endswith("_observed")
+    if observed:
         # A teacher for a network: half as much margin again, room for the imitation's errors.
         law["margin"] *= _OBSERVED_MARGIN
     gap = LaserPolicy(mapper, laser, **law)
     tight = LaserPolicy(mapper, laser, **{**law, "margin": 0.25 * law["margin"]})
-    if name == "crowd_navigator":
+    if name.startswith("crowd_navigator"):
         window = base.robot.laser.window[0]
-        return CrowdNavigatorPolicy(gap, max_heading, base.robot.radius, tight, window=window)
-    observed = name == "navigator_observed"
+        return CrowdNavigatorPolicy(
+            gap, max_heading, base.robot.radius, tight, window=window, observed_memory=observed
+        )
     return NavigatorPolicy(gap, max_heading, base.robot.radius, tight, observed_memory=observed)
 
 
@@ -191,6 +199,10 @@ class CrowdNavigatorPolicy(NavigatorPolicy):
     turned ``keep_right`` rad to the right: every robot keeps right, so a crossing turns into a
     roundabout instead of a meeting in the middle. Chosen on validation seeds (1000-1004, circle
     crossings of 4 to 20 robots).
+
+    With ``observed_memory`` (``crowd_navigator_observed``, 1.5 times the margin, as
+    ``navigator_observed``): its side memory read from the observation, the teacher of the crowd
+    recipe (docs/LEARNING.md, the tenth round).
     """
 
     name = "crowd_navigator"
@@ -203,8 +215,10 @@ class CrowdNavigatorPolicy(NavigatorPolicy):
         tight: LaserPolicy | None = None,
         window: float = 0.025,
         keep_right: float = 0.6,
+        observed_memory: bool = False,
     ) -> None:
-        super().__init__(gap, max_heading, radius, tight)
+        super().__init__(gap, max_heading, radius, tight, observed_memory=observed_memory)
+        self.name = "crowd_navigator_observed" if observed_memory else "crowd_navigator"
         angles = gap.laser_spec.angles()
         self.rays = np.stack([np.cos(angles), np.sin(angles)], axis=1)
         self.ahead = np.abs(angles) < 1.0

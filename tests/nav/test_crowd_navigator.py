@@ -49,3 +49,26 @@ def test_four_robots_cross_the_circle_where_the_navigator_meets_in_the_middle() 
         outcomes[name] = [(r["succeeded"], r["collided_with"]) for r in records]
     assert all(success for success, _ in outcomes["crowd_navigator"])
     assert any(touched.startswith("bubblerob_") for _, touched in outcomes["navigator"])
+
+
+def test_crowd_navigator_observed_reads_its_memory_from_the_observation() -> None:
+    """The crowd recipe's teacher: ``crowd_navigator`` whose side memory is the observation's."""
+    policy: Any = load_policy("crowd_navigator_observed", gym.make("BubbleRobNav-v0", **FAST))
+    assert policy.observed_memory and policy.name == "crowd_navigator_observed"
+    carried: Any = load_policy("crowd_navigator", gym.make("BubbleRobNav-v0", **FAST))
+    margin, carried_margin = (p.gap.half_width - 0.11 for p in (policy, carried))  # radius 0.11
+    assert margin == pytest.approx(1.5 * carried_margin)  # room for a student's errors
+    world = world_env(4, "circle", "BubbleRobNav-v0", FAST, circle_jitter=0.1)
+    try:
+        records = run_world_episode(world, policy, seed=1001, max_speed=0.4)  # validation
+    finally:
+        world.close()
+    assert all(r["succeeded"] for r in records), records
+    # Its state only marks a step taken: the action of a state it did not carry is the same.
+    env = gym.make("BubbleRobNav-v0", **FAST)
+    obs, _ = env.reset(seed=1000)
+    for _ in range(30):
+        obs, *_ = env.step(policy.predict(obs)[0])
+    first, _ = policy.predict(obs, state=np.array([1.0]))
+    other, _ = policy.predict(obs, state=np.array([7.0]))
+    np.testing.assert_array_equal(first, other)
