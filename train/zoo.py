@@ -116,4 +116,26 @@ def schedules(config: dict[str, Any]) -> dict[str, Any]:
 
 def algo_kwargs(config: dict[str, Any]) -> dict[str, Any]:
     """The keyword arguments of the SB3 algorithm in ``config``, schedules resolved."""
-    return schedules({k: v for k, v in config.items() if k not in (*NOT_ALGO_KWARGS, "seed")})
+    kwargs = schedules({k: v for k, v in config.items() if k not in (*NOT_ALGO_KWARGS, "seed")})
+    if isinstance(kwargs.get("policy_kwargs"), dict):
+        kwargs["policy_kwargs"] = resolved_policy_kwargs(kwargs["policy_kwargs"])
+    return kwargs
+
+
+def resolved_policy_kwargs(policy_kwargs: dict[str, Any]) -> dict[str, Any]:
+    """``policy_kwargs`` with a ``"module.Class"`` features extractor imported.
+
+    As ``callback`` and ``env_wrapper`` name theirs; rl_zoo3 itself takes a class there only in
+    its string form of ``policy_kwargs``, evaluated with its own imports.
+    """
+    name = policy_kwargs.get("features_extractor_class")
+    if not isinstance(name, str):
+        return policy_kwargs
+    module, _, cls_name = name.rpartition(".")
+    try:
+        cls = getattr(importlib.import_module(module), cls_name)
+    except (ImportError, AttributeError, ValueError) as error:
+        raise ValueError(
+            f"features_extractor_class {name!r}: not an importable module.Class ({error})"
+        ) from None
+    return {**policy_kwargs, "features_extractor_class": cls}
