@@ -45,6 +45,7 @@ NAVIGATION_POLICIES = (
 _HEADINGS = 41  # candidate headings, as LaserPolicy's
 _BUBBLEROB_RADIUS, _BUBBLEROB_SPEED = 0.11, 0.4  # what the gains below were tuned for
 _OBSERVED_MARGIN = 1.5  # navigator_observed's margin over the navigator's (validation seeds)
+_TURNING = 0.1  # navigator_observed: a measured turn rate above this share of the limit turns on
 
 
 def navigation_policy(
@@ -150,6 +151,19 @@ class NavigatorPolicy(OneByOnePolicy):
         action, _ = self._steer(obs, self.FRESH_STATE if fresh else self.memory_in(obs))
         return action, self.FRESH_STATE + 1.0
 
+    def _boxed_in_side(self, obs: Observation, free: NDArray[np.float64]) -> float:
+        """+1 (left) or -1 (right): the side with more room to turn to when boxed in.
+
+        With ``observed_memory``, the side it is already turning to while it turns (the
+        observation's measured rate): the side with more room flips as the robot turns, and a
+        network that averages both labels stands still.
+        """
+        if self.observed_memory:
+            turning = float(obs["velocity"][1])
+            if abs(turning) > _TURNING * self.mapper.angular_limit:
+                return math.copysign(1.0, turning)
+        return 1.0 if free[self.headings > 0].max() >= free[self.headings < 0].max() else -1.0
+
     def memory_in(self, obs: Observation) -> float:
         """The last step's heading from the goal, as the observation shows it (see the class)."""
         turn_rate, bearing = float(obs["velocity"][1]), float(obs["goal"][1])
@@ -174,8 +188,7 @@ class NavigatorPolicy(OneByOnePolicy):
         best = int(np.argmax(score))
         heading = float(self.headings[best])
         if free[best] < min(self.gap.boxed_in, distance):  # boxed in: turn towards more room
-            side = 1.0 if free[self.headings > 0].max() >= free[self.headings < 0].max() else -1.0
-            return self.mapper.from_twist(0.0, side * turn), memory
+            return self.mapper.from_twist(0.0, self._boxed_in_side(obs, free) * turn), memory
         limit = self.mapper.angular_limit
         angular = float(np.clip(self.gap.turn_gain * heading, -limit, limit))
         if abs(heading) > math.pi / 2:

@@ -55,3 +55,30 @@ def test_navigator_observed_reaches_goals_from_its_observation_alone() -> None:
     first, _ = policy.predict(obs, state=np.array([1.0]))
     other, _ = policy.predict(obs, state=np.array([7.0]))
     np.testing.assert_array_equal(first, other)
+
+
+def _boxed_in(turn_rate: float) -> dict[str, np.ndarray]:
+    """A robot boxed in (every ray 0.15 m), more room on its left (0.3 m), turning at a rate."""
+    laser = np.full(360, 0.15, dtype=np.float32)
+    laser[200:300] = 0.3  # rays 20 to 120 degrees to the left (ray 180 is straight ahead)
+    velocity = np.array([0.0, turn_rate], dtype=np.float32)
+    goal = np.array([2.0, 0.0], dtype=np.float32)
+    proximity = np.zeros(1, dtype=np.float32)
+    return {"laser": laser, "proximity": proximity, "velocity": velocity, "goal": goal}
+
+
+def test_boxed_in_navigator_observed_keeps_turning_the_way_it_turns() -> None:
+    """Boxed in, the navigator turns to the side with more room; ``navigator_observed`` keeps
+    to the side it already turns to (the measured rate), as long as it turns: the side with
+    more room flips as the robot turns, and a student averaging both labels stands still."""
+    env = gym.make("BubbleRobNav-v0")
+    navigator, observed = load_policy("navigator", env), load_policy("navigator_observed", env)
+
+    def turn(policy: NavigatorPolicy, rate: float) -> float:
+        action, _ = policy.predict(_boxed_in(rate), state=np.array([1.0]))
+        assert action[0] == -action[1] != 0  # in place
+        return float(np.sign(action[1] - action[0]))  # right wheel faster: a left turn
+
+    for rate in (-2.0, 0.0, 2.0):
+        assert turn(navigator, rate) == 1.0  # more room on the left
+    assert [turn(observed, rate) for rate in (-2.0, 0.0, 0.5, 2.0)] == [-1.0, 1.0, 1.0, 1.0]
