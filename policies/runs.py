@@ -257,8 +257,25 @@ def write_run_record(
     (out / SETTINGS_FILE).write_text(json.dumps(settings, indent=2) + "\n")
 
 
-def write_train_time(out: Path, wall_time_s: float, timesteps: int) -> None:
-    """Write ``train_time.json``: the training's wall time and timesteps."""
-    (out / TRAIN_TIME_FILE).write_text(
-        json.dumps({"wall_time_s": wall_time_s, "timesteps": timesteps}) + "\n"
-    )
+def write_train_time(
+    out: Path, wall_time_s: float, timesteps: int, context: dict[str, Any] | None = None
+) -> None:
+    """Write ``train_time.json``: the training's wall time and timesteps, and ``context``.
+
+    ``context``: when it started and ended, the machine's load then (:func:`machine_moment`).
+    """
+    record = {"wall_time_s": wall_time_s, "timesteps": timesteps, **(context or {})}
+    (out / TRAIN_TIME_FILE).write_text(json.dumps(record) + "\n")
+
+
+def machine_moment(label: str) -> dict[str, Any]:
+    """The UTC time and the 1, 5 and 15 min load averages, for ``label`` "start" or "end".
+
+    A wall time means little without the load it was measured under (BENCHMARKS records both).
+    """
+    import datetime
+    import os
+
+    now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+    load = [round(value, 2) for value in os.getloadavg()] if hasattr(os, "getloadavg") else []
+    return {{"start": "started", "end": "ended"}[label]: now, f"uptime_load_at_{label}": load}

@@ -25,6 +25,7 @@ from policies.runs import (
     CHECKPOINTS,
     FINAL_MODEL,
     TENSORBOARD,
+    machine_moment,
     normalization_path,
     write_run_record,
     write_train_time,
@@ -109,14 +110,15 @@ def train(
     envs, eval_env = training_envs(env_id, config, seed, eval_episodes, vec_env, robots, foxglove)
     model = _model(algo, config, envs, seed, out)
     callbacks, eval_env = _callbacks(model, config, eval_env, eval_freq, eval_episodes, out)
-    start = time.perf_counter()
+    start, started = time.perf_counter(), machine_moment("start")
     model.learn(int(config["n_timesteps"]), callback=callbacks, progress_bar=progress_bar)
     final = out / FINAL_MODEL
     model.save(final)
     normalizer = model.get_vec_normalize_env()  # under a VecFrameStack too
     if normalizer is not None:
         normalizer.save(str(normalization_path(final)))
-    write_train_time(out, time.perf_counter() - start, model.num_timesteps)
+    wall = time.perf_counter() - start
+    write_train_time(out, wall, model.num_timesteps, {**started, **machine_moment("end")})
     envs.close()
     eval_env.close()
     return final

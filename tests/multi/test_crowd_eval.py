@@ -125,7 +125,11 @@ def test_the_crowd_recipe_file_trains_on_the_weighted_mix(
     # n_envs 1 (the recipe's): circles of 4, 8, 2 x 12 and 3 x 20 robots, 4 random arenas of 8;
     # one rollout of 2 steps of every robot.
     robots = 4 + 8 + 2 * 12 + 3 * 20 + 4 * 8
-    assert json.loads((out / "train_time.json").read_text())["timesteps"] == 2 * robots
+    timing = json.loads((out / "train_time.json").read_text())
+    assert timing["timesteps"] == 2 * robots
+    # A wall time comes with when it ran and the machine's load then.
+    assert timing["started"] <= timing["ended"] and timing["ended"].endswith("Z")
+    assert len(timing["uptime_load_at_start"]) == len(timing["uptime_load_at_end"]) == 3
     missing = tmp_path / "none.yml"
     assert main(["--env", "BubbleRobNav-v0", "--conf-file", str(missing), "--out", str(out)]) == 2
     error = capsys.readouterr().err.strip().splitlines()[-1]
