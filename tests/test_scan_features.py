@@ -51,6 +51,30 @@ def test_a_recipe_names_it_and_a_bad_name_is_one_line() -> None:
         algo_kwargs({"policy_kwargs": {"features_extractor_class": "policies.nowhere.Conv"}})
 
 
+@pytest.mark.parametrize(
+    ("setting", "named"),
+    [
+        (
+            "policy_kwargs={features_extractor_class: policies.nowhere.Conv}",
+            "features_extractor_class",
+        ),
+        ('callback=[{"nowhere.Thing": {}}]', "callback"),
+        ("env_wrapper=policies.residual.NoSuchWrapper", "env_wrapper"),
+    ],
+)
+def test_python_m_train_says_a_class_that_is_not_there_in_one_line(
+    tmp_path, capsys, setting: str, named: str
+) -> None:
+    from bubblerob_cli.train import main
+
+    out = tmp_path / "run"
+    assert main(["--env", NAV, "--set", setting, "--out", str(out), "--no-progress"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"python -m train: {named} '")
+    assert "not an importable module.Class" in err[0]
+    assert not out.exists()  # refused before anything was made
+
+
 def test_its_onnx_export_acts_as_the_model(tmp_path) -> None:
     from stable_baselines3 import PPO
     from stable_baselines3.common.env_util import make_vec_env

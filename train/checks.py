@@ -7,6 +7,7 @@ evaluation after every step (a run that seems to hang). These are refused before
 
 from __future__ import annotations
 
+import importlib
 import math
 from typing import Any
 
@@ -110,6 +111,7 @@ def check_hyperparams(algo: str, config: dict[str, Any]) -> None:
             schedule_start(key, value)
         elif key in config and not (_is_number(value) and value > 0):
             raise bad(key, "a number > 0 or a schedule such as 'lin_3e-4'")
+    _check_named_classes(config)
     _check_numbers_in_classes(config)
     if "batch_size" in config:
         low = 2 if algo == "ppo" else 1  # SB3's PPO normalises advantages over a minibatch
@@ -139,6 +141,38 @@ def _check_known(algo: str, config: dict[str, Any]) -> None:
             f"unknown hyperparameter {unknown[0]} (--set {unknown[0]}=...): {algo.upper()} takes "
             f"the run's own keys {sorted(NOT_ALGO_KWARGS)} and its keyword arguments"
         )
+
+
+def imported_class(name: str, key: str | None = None) -> Any:
+    """The class a recipe names as ``"module.Class"``.
+
+    ``key``: the hyperparameter that names it, for the message.
+
+    Raises:
+        TrainArgumentError: There is no such class, in one line that names it.
+    """
+    module, _, cls_name = name.rpartition(".")
+    try:
+        return getattr(importlib.import_module(module), cls_name)
+    except (ImportError, AttributeError, ValueError) as error:
+        where = f"{key} " if key else ""
+        raise TrainArgumentError(
+            f"{where}{name!r}: not an importable module.Class ({error})"
+        ) from None
+
+
+def _check_named_classes(config: dict[str, Any]) -> None:
+    """Every class the recipe names (wrappers, callbacks, a features extractor) imports."""
+    from policies.runs import parse_env_wrapper
+
+    for key in ("env_wrapper", "callback"):
+        for name, _ in parse_env_wrapper(config.get(key)):
+            imported_class(name, key)
+    policy_kwargs = config.get("policy_kwargs")
+    if isinstance(policy_kwargs, dict):
+        extractor = policy_kwargs.get("features_extractor_class")
+        if isinstance(extractor, str):
+            imported_class(extractor, "features_extractor_class")
 
 
 def _check_numbers_in_classes(config: dict[str, Any]) -> None:

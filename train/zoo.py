@@ -13,12 +13,11 @@ rl-zoo's ``env_wrapper`` and ``callback`` keys name classes as ``"module.Class"`
 
 from __future__ import annotations
 
-import importlib
 from pathlib import Path
 from typing import Any
 
 from policies.runs import parse_env_wrapper
-from train.checks import NOT_ALGO_KWARGS, schedule_start
+from train.checks import NOT_ALGO_KWARGS, imported_class, schedule_start
 
 __all__ = [
     "ALGOS",
@@ -72,11 +71,7 @@ def reject_project_settings(config: dict[str, Any]) -> None:
 
 def named_classes(spec: Any) -> list[tuple[Any, dict[str, Any]]]:
     """rl-zoo's ``"module.Class"`` entries (``env_wrapper``, ``callback``): ``(class, kwargs)``."""
-    classes = []
-    for name, kwargs in parse_env_wrapper(spec):
-        module, _, cls_name = name.rpartition(".")
-        classes.append((getattr(importlib.import_module(module), cls_name), kwargs))
-    return classes
+    return [(imported_class(name), kwargs) for name, kwargs in parse_env_wrapper(spec)]
 
 
 def wrapper_class(spec: Any) -> Any:
@@ -131,11 +126,5 @@ def resolved_policy_kwargs(policy_kwargs: dict[str, Any]) -> dict[str, Any]:
     name = policy_kwargs.get("features_extractor_class")
     if not isinstance(name, str):
         return policy_kwargs
-    module, _, cls_name = name.rpartition(".")
-    try:
-        cls = getattr(importlib.import_module(module), cls_name)
-    except (ImportError, AttributeError, ValueError) as error:
-        raise ValueError(
-            f"features_extractor_class {name!r}: not an importable module.Class ({error})"
-        ) from None
+    cls = imported_class(name, "features_extractor_class")
     return {**policy_kwargs, "features_extractor_class": cls}
