@@ -45,7 +45,7 @@ NAVIGATION_POLICIES = (
 _HEADINGS = 41  # candidate headings, as LaserPolicy's
 _BUBBLEROB_RADIUS, _BUBBLEROB_SPEED = 0.11, 0.4  # what the gains below were tuned for
 _OBSERVED_MARGIN = 1.5  # navigator_observed's margin over the navigator's (validation seeds)
-_TURNING = 0.1  # navigator_observed: a measured turn rate above this share of the limit turns on
+_TURNING = 0.1  # *_observed, boxed in: a turn rate above this share of the limit goes on
 
 
 def navigation_policy(

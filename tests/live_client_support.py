@@ -43,28 +43,31 @@ class MessageCounter:
 
     def wait(self, count, timeout=None):
         """The latest message once ``count`` have come; exits the client after ``timeout``."""
-        end = time.monotonic() + (self.timeout if timeout is None else timeout)
-        with self.cond:
-            while self.count < count:
-                left = end - time.monotonic()
-                if left <= 0:
-                    raise SystemExit(
-                        f"timeout waiting for message {count} on {self.topic} (have {self.count})"
-                    )
-                self.cond.wait(left)
-            return self.latest
+        return self._wait_for(
+            lambda: self.count >= count,
+            lambda: f"message {count} on {self.topic} (have {self.count})",
+            timeout,
+        )
 
     def wait_until(self, done, what, timeout=None):
         """The latest message once ``done(latest)`` holds; exits the client after ``timeout``.
 
         For a message of another topic published at the same step: topics travel on their own
         connections, so one topic's message of step k can arrive before another's."""
+        return self._wait_for(
+            lambda: self.latest is not None and done(self.latest),
+            lambda: f"{what} on {self.topic}",
+            timeout,
+        )
+
+    def _wait_for(self, ready, what, timeout):
+        """The latest message once ``ready()``; else ``SystemExit`` naming ``what()``."""
         end = time.monotonic() + (self.timeout if timeout is None else timeout)
         with self.cond:
-            while self.latest is None or not done(self.latest):
+            while not ready():
                 left = end - time.monotonic()
                 if left <= 0:
-                    raise SystemExit(f"timeout waiting for {what} on {self.topic}")
+                    raise SystemExit(f"timeout waiting for {what()}")
                 self.cond.wait(left)
             return self.latest
 
