@@ -46,6 +46,11 @@ class ScanConvExtractor(BaseFeaturesExtractor):
         strides: tuple[int, int] = (4, 2),
         circular: bool = True,
     ) -> None:
+        if "laser" not in observation_space.spaces:
+            raise ValueError(
+                f"ScanConvExtractor convolves the 'laser' observation; this env gives "
+                f"{sorted(observation_space.spaces)} (make it with laser_num_rays > 0)"
+            )
         laser = observation_space.spaces["laser"]
         others = sorted(k for k in observation_space.spaces if k != "laser")
         rays = _size(laser)

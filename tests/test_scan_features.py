@@ -42,6 +42,12 @@ def test_a_turned_scan_turns_the_scan_features_and_nothing_else() -> None:
     torch.testing.assert_close(plain[:, maps : maps + 2], goal.float())
 
 
+def test_an_env_without_a_scan_is_named_in_the_error() -> None:
+    space = gym.make(NAV, laser_num_rays=0).observation_space
+    with pytest.raises(ValueError, match=r"convolves the 'laser' observation; this env gives \["):
+        ScanConvExtractor(space)
+
+
 def test_a_recipe_names_it_and_a_bad_name_is_one_line() -> None:
     kwargs = algo_kwargs(
         {"policy_kwargs": {"features_extractor_class": "policies.scan_features.ScanConvExtractor"}}
