@@ -48,10 +48,22 @@ __all__ = [
 
 
 class SB3Policy:
-    """An SB3 model with ``reset`` (the ``Policy`` protocol)."""
+    """An SB3 model's deterministic action, in float64 (the ``Policy`` protocol).
+
+    ``predict`` is SB3's ``predict(obs, deterministic=True)`` computed by
+    :class:`~policies.sb3_action.DeterministicActor`, the module the ONNX export traces: the zip
+    and its export run one computation, in float64, and agree to ~1e-15 (float32's ~1e-6 made
+    some closed-loop episodes end differently). One observation gives one action, a batch a batch.
+    Always the deterministic action, as the ONNX export's :class:`~policies.onnx_policy.OnnxPolicy`
+    (sampled actions: SB3's own ``model.predict(obs, deterministic=False)``, in float32).
+    """
 
     def __init__(self, model: Any) -> None:
+        from policies.sb3_action import DeterministicActor
+
         self.model = model
+        self.actor = DeterministicActor(model)
+        self.space = model.observation_space
 
     def predict(
         self,
@@ -60,8 +72,14 @@ class SB3Policy:
         episode_start: Any = None,
         deterministic: bool = True,
     ) -> Any:
-        """SB3's ``predict``."""
-        return self.model.predict(observation, state, episode_start, deterministic)
+        """Action(s) for one observation or a batch; ``state`` is always None (no memory)."""
+        first = next(iter(self.space.spaces))
+        single = np.ndim(observation[first]) == len(self.space.spaces[first].shape)
+        batch = {key: np.asarray(observation[key]) for key in self.space.spaces}
+        if single:
+            batch = {key: value[None] for key, value in batch.items()}
+        actions = self.actor.act(batch)
+        return (actions[0] if single else actions), None
 
     def reset(self) -> None:
         """Nothing to forget: the model is stateless."""

@@ -72,10 +72,42 @@ class ScanConvExtractor(BaseFeaturesExtractor):
     def forward(self, observations: dict[str, Any]) -> Any:
         """The features of a batch of Dict observations (tensors), one row each."""
         laser = observations["laser"].flatten(1) * self.scale_laser
-        parts = [self.scan(laser[:, None, :]).flatten(1)]
+        maps = laser[:, None, :]
+        if maps.dtype == torch.float64:
+            # The float64 path the zip loader and the ONNX export share (policies/sb3_action.py):
+            # onnxruntime has no float64 Conv, so each convolution is a gather and a matmul.
+            for layer in self.scan:
+                maps = (
+                    _conv_as_matmul(maps, layer)
+                    if isinstance(layer, torch.nn.Conv1d)
+                    else (layer(maps))
+                )
+        else:
+            maps = self.scan(maps)
+        parts = [maps.flatten(1)]
         for key in self.others:
             parts.append(observations[key].flatten(1) * getattr(self, f"scale_{key}"))
         return torch.cat(parts, dim=1)
+
+
+def _conv_as_matmul(maps: Any, conv: torch.nn.Conv1d) -> Any:
+    """``conv(maps)`` as a gather of its windows and one matrix product, in any dtype.
+
+    The same products as the convolution's, summed in another order.
+    """
+    # Conv1d's padding is a tuple of ints here (never "same"/"valid": see __init__).
+    pad, kernel, stride = int(conv.padding[0]), conv.kernel_size[0], conv.stride[0]
+    if pad and conv.padding_mode == "circular":
+        maps = torch.cat([maps[..., -pad:], maps, maps[..., :pad]], dim=-1)
+    elif pad:
+        maps = torch.nn.functional.pad(maps, (pad, pad))
+    length = (maps.shape[-1] - kernel) // stride + 1
+    index = torch.arange(length)[:, None] * stride + torch.arange(kernel)[None, :]
+    windows = maps[:, :, index].permute(0, 2, 1, 3).flatten(2)  # (batch, length, in * kernel)
+    out = windows @ conv.weight.flatten(1).T
+    if conv.bias is not None:
+        out = out + conv.bias
+    return out.transpose(1, 2)
 
 
 def _conv_length(length: int, kernel: int, stride: int) -> int:

@@ -42,6 +42,26 @@ def test_a_turned_scan_turns_the_scan_features_and_nothing_else() -> None:
     torch.testing.assert_close(plain[:, maps : maps + 2], goal.float())
 
 
+@pytest.mark.parametrize("circular", [True, False])
+def test_the_float64_path_is_the_same_convolution(circular: bool) -> None:
+    """The oracle: torch's own Conv1d in float64. The extractor's float64 path (gathers and a
+    matmul, which onnxruntime runs: it has no float64 Conv) gives the same features, and its
+    float32 path the same to float32's precision."""
+    space = gym.make(NAV).observation_space
+    extractor = ScanConvExtractor(space, circular=circular)
+    batch = {k: torch.as_tensor(v) for k, v in _batch(space, 4).items()}
+    wide = extractor.double()
+    with torch.no_grad():
+        features = wide({k: v.double() for k, v in batch.items()})
+        laser = batch["laser"].double()[:, None, :] * wide.scale_laser
+        expected = wide.scan(laser).flatten(1)  # torch's Conv1d, in float64
+        narrow = wide.float()(batch)
+    maps = expected.shape[1]
+    assert features.dtype == torch.float64
+    torch.testing.assert_close(features[:, :maps], expected, rtol=0, atol=1e-12)
+    torch.testing.assert_close(narrow, features.float(), rtol=1e-5, atol=1e-5)
+
+
 def test_an_env_without_a_scan_is_named_in_the_error() -> None:
     space = gym.make(NAV, laser_num_rays=0).observation_space
     with pytest.raises(ValueError, match=r"convolves the 'laser' observation; this env gives \["):

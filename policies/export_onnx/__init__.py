@@ -19,7 +19,8 @@ The graph follows SB3's ONNX export recipe (a ``torch.nn.Module`` around the pol
 - VecNormalize's observation normalisation, in float64 as NumPy does it:
   ``clip((obs - mean) / sqrt(var + epsilon), -clip_obs, clip_obs)``, then float32;
 - the deterministic action (the Gaussian's mean for PPO, SAC's squashed mean), clipped to the
-  action space (PPO) or rescaled to it (SAC) as ``predict`` does;
+  action space (PPO) or rescaled to it (SAC) as ``predict`` does, computed in float64 by the
+  module the zip loader runs (:mod:`policies.sb3_action`: why float64);
 - one output, ``action`` ``(batch, action_dim)`` float32.
 
 The model's metadata (``bubblerob`` key, JSON) records the env it was trained for (env id, env
@@ -108,56 +109,26 @@ def _build_module(
     """The torch module (raw observations in key order -> action) and the key order.
 
     ``pooling`` (``[(key, pool), ...]``) min-pools those inputs first, as ``LaserPooling`` did in
-    training: the module takes the env's full scan.
+    training: the module takes the env's full scan. The action is
+    :class:`~policies.sb3_action.DeterministicActor`'s, the computation the zip loader runs, in
+    float64; the graph's output is float32, as ``predict``'s.
     """
     import torch
-    from gymnasium import spaces
-    from stable_baselines3.common.distributions import DiagGaussianDistribution
-    from stable_baselines3.common.policies import ActorCriticPolicy
 
-    policy = model.policy
-    policy.set_training_mode(False)
-    obs_space = model.observation_space
-    if not isinstance(obs_space, spaces.Dict):
-        raise ValueError("only Dict observation spaces are supported (BubbleRob's)")
-    keys = list(obs_space.spaces)  # gymnasium sorts a Dict's keys; CombinedExtractor keeps them
-    action_space = model.action_space
-    low = torch.as_tensor(action_space.low, dtype=torch.float32)
-    high = torch.as_tensor(action_space.high, dtype=torch.float32)
+    from policies.sb3_action import DeterministicActor
+
+    actor = DeterministicActor(model)
+    keys = list(model.observation_space.spaces)  # gymnasium sorts a Dict's keys, as SB3 does
     stats = _normalization_stats(normalizer)
-    is_actor_critic = isinstance(policy, ActorCriticPolicy)
-    is_gaussian = (
-        is_actor_critic
-        and type(policy.action_dist) is DiagGaussianDistribution
-        and not policy.squash_output
-    )
 
     class OnnxablePolicy(torch.nn.Module):
         def __init__(self) -> None:
             super().__init__()
-            self.policy = policy
+            self.actor = actor
 
         def forward(self, *observations: Any) -> Any:
             obs = _model_inputs(keys, observations, pooling, stats)
-            if is_gaussian:
-                # The Gaussian's mean, as policy(obs, deterministic=True) computes it, without
-                # building the distribution (whose argument checks the tracer would freeze).
-                features = self.policy.extract_features(obs, self.policy.pi_features_extractor)
-                latent = self.policy.mlp_extractor.forward_actor(features)
-                actions = self.policy.action_net(latent)
-                return torch.maximum(torch.minimum(actions, high), low)
-            if is_actor_critic:
-                # SB3's recipe: policy(obs, deterministic=True) gives the distribution's mode.
-                actions, _, _ = self.policy(obs, deterministic=True)
-                if self.policy.squash_output:
-                    return low + 0.5 * (actions + 1.0) * (high - low)
-                return torch.maximum(torch.minimum(actions, high), low)
-            if self.policy.actor.use_sde:
-                actions = self.policy.actor(obs, deterministic=True)
-            else:  # SAC's deterministic action, the squashed mean, as actor(obs) computes it
-                mean, _, _ = self.policy.actor.get_action_dist_params(obs)
-                actions = torch.tanh(mean)
-            return low + 0.5 * (actions + 1.0) * (high - low)
+            return self.actor(obs).float()
 
     return OnnxablePolicy().eval(), keys
 
