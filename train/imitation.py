@@ -10,9 +10,10 @@ steps them, under VecNormalize, whose statistics these steps warm up), the callb
 
 1. drives ``steps_per_round`` env steps with the teacher (``load_policy(teacher)``, e.g. the
    ``navigator``), recording each raw observation and the teacher's action for it;
-2. fits the policy's deterministic action (the Gaussian's mean) to the teacher's actions, mean
-   squared error, ``gradient_steps`` Adam steps on minibatches drawn from every sample recorded
-   so far (behaviour cloning, Pomerleau 1991);
+2. fits the policy's deterministic action (the Gaussian's mean) to the teacher's actions (mean
+   squared error, or with ``loss: l1`` mean absolute error: see :data:`_LOSSES`),
+   ``gradient_steps`` Adam steps on minibatches drawn from every sample recorded so far
+   (behaviour cloning, Pomerleau 1991);
 3. for each further round, lets the policy drive (the teacher's action taken with probability
    ``teacher_fraction``) and records the teacher's action for every state the policy visits,
    then fits again on all of it (DAgger, Ross et al. 2011): the policy learns to recover from
@@ -71,7 +72,7 @@ class ImitationWarmStart(BaseCallback):
     after each, ``gradient_steps`` Adam steps on minibatches of ``batch_size`` drawn from every
     sample so far, the step size decaying linearly from ``learning_rate`` to a tenth of it over
     the rounds. In later rounds the teacher's action is taken with probability
-    ``teacher_fraction`` per env and step, the policy's otherwise.
+    ``teacher_fraction`` per env and step, the policy's otherwise. ``loss``: ``mse`` or ``l1``.
     """
 
     warm_start = True
@@ -88,6 +89,7 @@ class ImitationWarmStart(BaseCallback):
         batch_size: int = 256,
         learning_rate: float = 1e-3,
         teacher_fraction: float = 0.0,
+        loss: str = "mse",
     ) -> None:
         super().__init__()
         self.teacher_name, self.env_id = teacher, env_id
@@ -104,6 +106,11 @@ class ImitationWarmStart(BaseCallback):
                 f"ImitationWarmStart teacher_fraction must be in [0, 1], got {teacher_fraction!r}"
             )
         self.teacher_fraction = float(teacher_fraction)
+        if loss not in _LOSSES:
+            raise ValueError(
+                f"ImitationWarmStart loss must be one of {', '.join(_LOSSES)}, got {loss!r}"
+            )
+        self.loss = loss
         self.recording = Recording()
         self.env_steps = 0
         """Env steps driven by imitation (not counted in the algorithm's timesteps)."""
@@ -182,7 +189,7 @@ class ImitationWarmStart(BaseCallback):
         for _ in range(self.gradient_steps):
             batch = torch.as_tensor(rng.integers(0, len(target), self.batch_size))
             mean = _action_mean(policy, {key: value[batch] for key, value in tensors.items()})
-            loss: Any = torch.nn.functional.mse_loss(mean, target[batch])
+            loss: Any = _LOSSES[self.loss](mean, target[batch])
             optimizer.zero_grad()
             loss.backward()
             optimizer.step()
@@ -201,6 +208,24 @@ class ImitationWarmStart(BaseCallback):
             self.logger.record("imitation/driven_success_rate", float(np.mean(successes)))
             self.logger.record("imitation/driven_episodes", len(successes))
         self.logger.dump(step=self.env_steps)
+
+
+def _mse(mean: Any, target: Any) -> Any:
+    import torch
+
+    return torch.nn.functional.mse_loss(mean, target)
+
+
+def _l1(mean: Any, target: Any) -> Any:
+    import torch
+
+    return torch.nn.functional.l1_loss(mean, target)
+
+
+_LOSSES = {"mse": _mse, "l1": _l1}
+"""The fit's loss: ``mse`` fits the labels' mean on a state, ``l1`` their median (where a teacher
+says turn left on some visits of a state and right on others, the mean is standing still; the
+median is the more frequent side)."""
 
 
 def _original(model: Any, obs: Any) -> dict[str, NDArray[Any]]:
