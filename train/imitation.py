@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 from stable_baselines3.common.callbacks import BaseCallback
+from torch.nn import functional  # imported with SB3 already
 
 from policies.builtin import builtin_policy
 
@@ -210,19 +211,7 @@ class ImitationWarmStart(BaseCallback):
         self.logger.dump(step=self.env_steps)
 
 
-def _mse(mean: Any, target: Any) -> Any:
-    import torch
-
-    return torch.nn.functional.mse_loss(mean, target)
-
-
-def _l1(mean: Any, target: Any) -> Any:
-    import torch
-
-    return torch.nn.functional.l1_loss(mean, target)
-
-
-_LOSSES = {"mse": _mse, "l1": _l1}
+_LOSSES = {"mse": functional.mse_loss, "l1": functional.l1_loss}
 """The fit's loss: ``mse`` fits the labels' mean on a state, ``l1`` their median (where a teacher
 says turn left on some visits of a state and right on others, the mean is standing still; the
 median is the more frequent side)."""
