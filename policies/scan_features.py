@@ -77,11 +77,10 @@ class ScanConvExtractor(BaseFeaturesExtractor):
             # The float64 path the zip loader and the ONNX export share (policies/sb3_action.py):
             # onnxruntime has no float64 Conv, so each convolution is a gather and a matmul.
             for layer in self.scan:
-                maps = (
-                    _conv_as_matmul(maps, layer)
-                    if isinstance(layer, torch.nn.Conv1d)
-                    else (layer(maps))
-                )
+                if isinstance(layer, torch.nn.Conv1d):
+                    maps = _conv_as_matmul(maps, layer)
+                else:
+                    maps = layer(maps)
         else:
             maps = self.scan(maps)
         parts = [maps.flatten(1)]
