@@ -10,7 +10,7 @@ from numpy.typing import NDArray
 
 from bubblerob_env.kinematics import DiffDrive
 
-__all__ = ["ActionMapper", "Observation", "Policy", "batch_size", "take"]
+__all__ = ["ActionMapper", "Observation", "Policy", "as_batch", "batch_size", "take"]
 
 Observation = dict[str, NDArray[Any]]
 """One BubbleRob observation (keys ``laser``, ``proximity``, ``velocity``, maybe ``camera``), or a
@@ -45,6 +45,20 @@ def batch_size(obs: dict[str, NDArray[Any]]) -> int | None:
     """``None`` for one observation (``proximity`` of shape (1,)), else the number of envs."""
     proximity = np.asarray(obs["proximity"])
     return None if proximity.ndim == 1 else int(proximity.shape[0])
+
+
+def as_batch(
+    observation: dict[str, Any], shapes: dict[str, tuple[int, ...]]
+) -> tuple[dict[str, NDArray[Any]], bool]:
+    """``observation``'s ``shapes`` keys as a batch, and whether it was one observation.
+
+    One observation has each key of its shape in ``shapes``; a batch has a leading axis more.
+    A network's ``predict`` (ONNX, SB3) runs batches and gives a single observation one action.
+    """
+    first = next(iter(shapes))
+    single = np.ndim(observation[first]) == len(shapes[first])
+    batch = {key: np.asarray(observation[key]) for key in shapes}
+    return ({key: value[None] for key, value in batch.items()} if single else batch), single
 
 
 def take(obs: dict[str, NDArray[Any]], index: int | None) -> dict[str, NDArray[Any]]:

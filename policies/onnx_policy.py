@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bubblerob_env.extras import MissingExtraError
-from policies.base import Policy
+from policies.base import Policy, as_batch
 from policies.observations import check_env, check_exact_keys, check_observations
 from policies.residual import check_scale, on_gap_follower
 
@@ -65,6 +65,7 @@ class OnnxPolicy:
             node.name: list(node.shape[1:]) for node in self.session.get_inputs()
         }
         self.observation_shapes = {key: tuple(shape) for key, shape in shapes.items()}
+        self._input_shapes = {key: self.observation_shapes[key] for key in self.input_names}
 
     def predict(
         self,
@@ -77,12 +78,8 @@ class OnnxPolicy:
         missing = [key for key in self.input_names if key not in observation]
         if missing:
             raise ValueError(f"{self.path.name} needs observation keys {missing}")
-        first = self.input_names[0]
-        single = np.ndim(observation[first]) == len(self.observation_shapes[first])
-        feed = {}
-        for key in self.input_names:
-            value = np.asarray(observation[key], dtype=self._dtypes[key])
-            feed[key] = value[None] if single else value
+        batch, single = as_batch(observation, self._input_shapes)
+        feed = {key: value.astype(self._dtypes[key], copy=False) for key, value in batch.items()}
         (actions,) = self.session.run(["action"], feed)
         return (actions[0] if single else actions), None
 

@@ -20,7 +20,7 @@ import numpy as np
 
 from bubblerob_env.extras import MissingExtraError
 from bubblerob_env.wrappers import min_pool
-from policies.base import Policy
+from policies.base import Policy, as_batch
 from policies.observations import (
     ObservationAdapter,
     check_env,
@@ -63,7 +63,7 @@ class SB3Policy:
 
         self.model = model
         self.actor = DeterministicActor(model)
-        self.space = model.observation_space
+        self.shapes = {key: space.shape for key, space in model.observation_space.spaces.items()}
 
     def predict(
         self,
@@ -73,11 +73,7 @@ class SB3Policy:
         deterministic: bool = True,
     ) -> Any:
         """Action(s) for one observation or a batch; ``state`` is always None (no memory)."""
-        first = next(iter(self.space.spaces))
-        single = np.ndim(observation[first]) == len(self.space.spaces[first].shape)
-        batch = {key: np.asarray(observation[key]) for key in self.space.spaces}
-        if single:
-            batch = {key: value[None] for key, value in batch.items()}
+        batch, single = as_batch(observation, self.shapes)
         actions = self.actor.act(batch)
         return (actions[0] if single else actions), None
 
