@@ -8,6 +8,7 @@ evaluation after every step (a run that seems to hang). These are refused before
 from __future__ import annotations
 
 import importlib
+import inspect
 import math
 from typing import Any
 
@@ -176,7 +177,7 @@ def _check_named_classes(config: dict[str, Any]) -> None:
 
 
 def _check_numbers_in_classes(config: dict[str, Any]) -> None:
-    """The numbers given to the project's own wrapper and callback, checked before training."""
+    """The numbers given to the project's own wrappers and callbacks, checked before training."""
     from policies.runs import LASER_POOLING, parse_env_wrapper, pool_size, residual_scale
 
     if config.get("env_wrapper"):
@@ -185,15 +186,14 @@ def _check_numbers_in_classes(config: dict[str, Any]) -> None:
         if name == LASER_POOLING:
             pool_size(name, kwargs.get("pool", 10))
     for name, kwargs in parse_env_wrapper(config.get("callback")):
-        if name == "train.callbacks.ObstacleCurriculum":
-            from train.callbacks import ObstacleCurriculum
-
+        if name.startswith("train."):  # the project's own callbacks, made for the check alone
+            cls = imported_class(name, "callback")
             try:
-                ObstacleCurriculum(**kwargs)  # its own one-line ValueError for a bad value
+                cls(**kwargs)  # each says a bad value in its own one-line ValueError
             except TypeError:
-                allowed = "start=[low, high] and ramp_fraction"
+                takes = ", ".join(inspect.signature(cls).parameters)
                 raise TrainArgumentError(
-                    f"callback {name}: unknown arguments {sorted(kwargs)} (it takes {allowed})"
+                    f"callback {name}: unknown arguments {sorted(kwargs)} (it takes {takes})"
                 ) from None
 
 

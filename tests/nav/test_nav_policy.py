@@ -236,3 +236,28 @@ def test_the_l1_fit_takes_the_more_frequent_turn_where_mse_stands_still():
     assert fits["l1"] == pytest.approx(1.0, abs=0.02)
     with pytest.raises(ValueError, match="loss must be one of mse, l1, got 'huber'"):
         ImitationWarmStart(loss="huber")
+
+
+@pytest.mark.parametrize(
+    ("arguments", "said"),
+    [
+        ('{"loss": "huber"}', "ImitationWarmStart loss must be one of mse, l1, got 'huber'"),
+        ('{"rounds": 0}', "ImitationWarmStart rounds must be an int >= 1, got 0"),
+        ('{"lossy": 1}', "unknown arguments ['lossy'] (it takes teacher, env_id, "),
+    ],
+)
+def test_python_m_train_says_a_bad_imitation_argument_in_one_line(
+    tmp_path, capsys, arguments: str, said: str
+) -> None:
+    # A bad value for the recipe's callback is refused before anything is made (it was a
+    # traceback from inside training).
+    pytest.importorskip("stable_baselines3")
+    from bubblerob_cli.train import main
+
+    out = tmp_path / "run"
+    setting = f'callback=[{{"train.imitation.ImitationWarmStart": {arguments}}}]'
+    argv = ["--env", "BubbleRobNav-v0", "--set", setting, "--out", str(out), "--no-progress"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("python -m train: ") and said in err[0], err
+    assert not out.exists()
