@@ -11,7 +11,7 @@ steps them, under VecNormalize, whose statistics these steps warm up), the callb
 1. drives ``steps_per_round`` env steps with the teacher (``load_policy(teacher)``, e.g. the
    ``navigator``), recording each raw observation and the teacher's action for it;
 2. fits the policy's deterministic action (the Gaussian's mean) to the teacher's actions (mean
-   squared error, or with ``loss: l1`` mean absolute error: see :data:`_LOSSES`),
+   squared error, or with ``loss: l1`` mean absolute error: see :data:`LOSSES`),
    ``gradient_steps`` Adam steps on minibatches drawn from every sample recorded so far
    (behaviour cloning, Pomerleau 1991);
 3. for each further round, lets the policy drive (the teacher's action taken with probability
@@ -37,7 +37,7 @@ from torch.nn import functional  # imported with SB3 already
 
 from policies.builtin import builtin_policy
 
-__all__ = ["ImitationWarmStart", "Recording"]
+__all__ = ["LOSSES", "ImitationWarmStart", "Recording"]
 
 
 @dataclass
@@ -107,9 +107,9 @@ class ImitationWarmStart(BaseCallback):
                 f"ImitationWarmStart teacher_fraction must be in [0, 1], got {teacher_fraction!r}"
             )
         self.teacher_fraction = float(teacher_fraction)
-        if loss not in _LOSSES:
+        if loss not in LOSSES:
             raise ValueError(
-                f"ImitationWarmStart loss must be one of {', '.join(_LOSSES)}, got {loss!r}"
+                f"ImitationWarmStart loss must be one of {', '.join(LOSSES)}, got {loss!r}"
             )
         self.loss = loss
         self.recording = Recording()
@@ -190,7 +190,7 @@ class ImitationWarmStart(BaseCallback):
         for _ in range(self.gradient_steps):
             batch = torch.as_tensor(rng.integers(0, len(target), self.batch_size))
             mean = _action_mean(policy, {key: value[batch] for key, value in tensors.items()})
-            loss: Any = _LOSSES[self.loss](mean, target[batch])
+            loss: Any = LOSSES[self.loss](mean, target[batch])
             optimizer.zero_grad()
             loss.backward()
             optimizer.step()
@@ -211,7 +211,7 @@ class ImitationWarmStart(BaseCallback):
         self.logger.dump(step=self.env_steps)
 
 
-_LOSSES = {"mse": functional.mse_loss, "l1": functional.l1_loss}
+LOSSES = {"mse": functional.mse_loss, "l1": functional.l1_loss}
 """The fit's loss: ``mse`` fits the labels' mean on a state, ``l1`` their median (where a teacher
 says turn left on some visits of a state and right on others, the mean is standing still; the
 median is the more frequent side)."""

@@ -220,11 +220,11 @@ def test_the_l1_fit_takes_the_more_frequent_turn_where_mse_stands_still():
     # teacher says turn left on 60% of the visits of a state and right on 40%, the mean of the
     # labels (MSE's fit) is a slow turn, nearly standing still; the median (L1's) is the left turn.
     torch = pytest.importorskip("torch")
-    from train.imitation import _LOSSES, ImitationWarmStart
+    from train.imitation import LOSSES, ImitationWarmStart
 
     labels = torch.tensor([[1.0]] * 60 + [[-1.0]] * 40)
     fits = {}
-    for name, loss in _LOSSES.items():
+    for name, loss in LOSSES.items():
         action = torch.zeros(1, 1, requires_grad=True)
         optimizer = torch.optim.Adam([action], lr=0.01)
         for _ in range(1500):
